@@ -1,0 +1,134 @@
+#include "device/device.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+
+#include "device/cl_errors.h"
+#include "device/kernel_source.h"
+#include "util/errors.h"
+
+namespace spm {
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+std::string type_name(cl_device_type t) {
+  if (t & CL_DEVICE_TYPE_GPU) return "GPU";
+  if (t & CL_DEVICE_TYPE_CPU) return "CPU";
+  if (t & CL_DEVICE_TYPE_ACCELERATOR) return "accelerator";
+  return "other";
+}
+
+}  // namespace
+
+std::string describe(const cl::Error& e) { return std::string(e.what()) + ": " + cl_error_name(e.err()); }
+
+std::vector<DeviceInfo> list_devices() {
+  std::vector<cl::Platform> platforms;
+  // ocl-icd returns CL_PLATFORM_NOT_FOUND_KHR when no ICD is installed: no devices.
+  if (cl::Platform::get(&platforms) != CL_SUCCESS) return {};
+  std::vector<DeviceInfo> out;
+  for (size_t p = 0; p < platforms.size(); ++p) {
+    std::vector<cl::Device> devices;
+    try {
+      platforms[p].getDevices(CL_DEVICE_TYPE_ALL, &devices);
+    } catch (const cl::Error&) {
+      continue;  // CL_DEVICE_NOT_FOUND: a platform without devices
+    }
+    for (size_t d = 0; d < devices.size(); ++d) {
+      DeviceInfo info;
+      info.platform = static_cast<int>(p);
+      info.index = static_cast<int>(d);
+      info.platform_name = platforms[p].getInfo<CL_PLATFORM_NAME>();
+      info.device = devices[d];
+      info.name = devices[d].getInfo<CL_DEVICE_NAME>();
+      info.type = type_name(devices[d].getInfo<CL_DEVICE_TYPE>());
+      info.version = devices[d].getInfo<CL_DEVICE_VERSION>();
+      info.compute_units = devices[d].getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+      info.global_memory = devices[d].getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+      info.max_alloc = devices[d].getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+      info.max_work_group = devices[d].getInfo<CL_DEVICE_MAX_WORK_GROUP_SIZE>();
+      out.push_back(info);
+    }
+  }
+  return out;
+}
+
+DeviceInfo select_device(const std::string& selector) {
+  const auto devices = list_devices();
+  if (devices.empty()) throw RuntimeError("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+  if (selector.empty()) {
+    for (const char* want : {"GPU", "CPU"}) {
+      for (const auto& d : devices) {
+        if (d.type == want) return d;
+      }
+    }
+    return devices.front();
+  }
+  int p = -1, d = -1;
+  char tail = 0;
+  if (std::sscanf(selector.c_str(), "%d:%d%c", &p, &d, &tail) == 2) {
+    for (const auto& info : devices) {
+      if (info.platform == p && info.index == d) return info;
+    }
+    throw InputError("--device", "no device " + selector + " (see 'spm devices')");
+  }
+  for (const auto& info : devices) {
+    if (lower(info.name).find(lower(selector)) != std::string::npos) return info;
+  }
+  throw InputError("--device", "no device name contains '" + selector + "' (see 'spm devices')");
+}
+
+Device::Device(const DeviceInfo& info, std::string kernel_dir) : info_(info), kernel_dir_(std::move(kernel_dir)) {
+  context_ = cl::Context(info_.device);
+  queue_ = cl::CommandQueue(context_, info_.device, CL_QUEUE_PROFILING_ENABLE);
+}
+
+cl::Kernel Device::kernel(const std::string& program, const std::string& name) {
+  auto it = programs_.find(program);
+  if (it == programs_.end()) {
+    const std::string source = kernel_program_source(program, kernel_dir_);
+    cl::Program prog(context_, source);
+    const auto start = std::chrono::steady_clock::now();
+    // No scene values in the options (STYLE.md): PoCL's kernel cache then hits
+    // for every scene and run.
+    try {
+      prog.build({info_.device}, "-cl-std=CL1.2");
+    } catch (const cl::Error& e) {
+      std::string log;
+      try {
+        log = prog.getBuildInfo<CL_PROGRAM_BUILD_LOG>(info_.device);
+      } catch (const cl::Error&) {
+        log = "(no build log)";
+      }
+      throw RuntimeError("building " + program + ".cl on " + info_.name + ": " + describe(e) + "\n" + log);
+    }
+    build_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    it = programs_.emplace(program, prog).first;
+  }
+  return cl::Kernel(it->second, name.c_str());
+}
+
+size_t Device::work_group_size(const cl::Kernel& kernel) const {
+  const size_t max = kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(info_.device);
+  const size_t multiple = kernel.getWorkGroupInfo<CL_KERNEL_PREFERRED_WORK_GROUP_SIZE_MULTIPLE>(info_.device);
+  size_t size = std::min<size_t>(64, max);
+  if (multiple > 0 && size >= multiple) size -= size % multiple;
+  return std::max<size_t>(size, 1);
+}
+
+cl::Event Device::launch(const std::string& label, cl::Kernel& kernel, size_t items) {
+  const size_t local = work_group_size(kernel);
+  const size_t global = std::max<size_t>(local, (items + local - 1) / local * local);
+  cl::Event event;
+  queue_.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(local), nullptr, &event);
+  launches_.push_back({label, event, global, items});
+  return event;
+}
+
+}  // namespace spm

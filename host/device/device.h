@@ -1,0 +1,129 @@
+// OpenCL devices: enumeration, selection, one context + profiling queue per
+// device, program builds from the embedded kernel sources, labelled launches.
+#pragma once
+
+#include <CL/opencl.hpp>
+
+#include <map>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace spm {
+
+struct DeviceInfo {
+  int platform = 0;
+  int index = 0;  // within its platform
+  std::string platform_name;
+  std::string name;
+  std::string type;  // "GPU", "CPU", "accelerator", "other"
+  std::string version;
+  cl_uint compute_units = 0;
+  cl_ulong global_memory = 0;
+  cl_ulong max_alloc = 0;
+  size_t max_work_group = 0;
+  cl::Device device;
+};
+
+// Every device of every platform, in platform order. An empty list (no ICD, no
+// platform) is not an error here; selection reports it.
+std::vector<DeviceInfo> list_devices();
+
+// `selector`: "" (first GPU, else first CPU, else the first device), "P:D", or a
+// case-insensitive substring of the device name. Throws InputError when nothing
+// matches, RuntimeError when there is no OpenCL device at all.
+DeviceInfo select_device(const std::string& selector);
+
+// One enqueued command with its label, kept for the profile.
+struct Launch {
+  std::string label;
+  cl::Event event;
+  size_t global = 0;  // work-items launched (padded)
+  size_t items = 0;   // items that had work
+};
+
+class Device {
+ public:
+  Device(const DeviceInfo& info, std::string kernel_dir);
+
+  const DeviceInfo& info() const { return info_; }
+  cl::Context& context() { return context_; }
+  cl::CommandQueue& queue() { return queue_; }
+
+  // The kernel `name` of program `program` (kernels/<program>.cl), building the
+  // program on first use. A build failure throws RuntimeError with the log.
+  cl::Kernel kernel(const std::string& program, const std::string& name);
+
+  // Enqueues `kernel` over `items` work-items: the global size is padded to a
+  // multiple of the work-group size (OpenCL 1.2 has no non-uniform groups), so
+  // every kernel takes its item count and returns early past it.
+  cl::Event launch(const std::string& label, cl::Kernel& kernel, size_t items);
+
+  template <class T>
+  cl::Buffer upload(const std::vector<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
+    // A zero-sized buffer is invalid in OpenCL; empty tables get one element.
+    const size_t bytes = sizeof(T) * (data.empty() ? 1 : data.size());
+    cl::Buffer b(context_, flags, bytes);
+    if (!data.empty()) {
+      cl::Event e;
+      queue_.enqueueWriteBuffer(b, CL_TRUE, 0, sizeof(T) * data.size(), data.data(), nullptr, &e);
+      launches_.push_back({"upload", e, 0, 0});
+    }
+    return b;
+  }
+
+  template <class T>
+  std::vector<T> download(const cl::Buffer& buffer, size_t count) {
+    std::vector<T> out(count);
+    if (count > 0) {
+      cl::Event e;
+      queue_.enqueueReadBuffer(buffer, CL_TRUE, 0, sizeof(T) * count, out.data(), nullptr, &e);
+      launches_.push_back({"download", e, 0, 0});
+    }
+    return out;
+  }
+
+  size_t work_group_size(const cl::Kernel& kernel) const;
+  double build_seconds() const { return build_seconds_; }
+  const std::vector<Launch>& launches() const { return launches_; }
+
+ private:
+  DeviceInfo info_;
+  std::string kernel_dir_;
+  cl::Context context_;
+  cl::CommandQueue queue_;
+  std::map<std::string, cl::Program> programs_;
+  std::vector<Launch> launches_;
+  double build_seconds_ = 0.0;
+};
+
+// An argument group (such as GpuScene) binds several consecutive arguments
+// itself through `cl_uint bind(cl::Kernel&, cl_uint first) const`.
+template <class T, class = void>
+struct binds_arguments : std::false_type {};
+template <class T>
+struct binds_arguments<T, std::void_t<decltype(std::declval<const T&>().bind(std::declval<cl::Kernel&>(), cl_uint{}))>>
+    : std::true_type {};
+
+template <class T>
+cl_uint set_arg(cl::Kernel& kernel, cl_uint index, const T& value) {
+  if constexpr (binds_arguments<T>::value) {
+    return value.bind(kernel, index);
+  } else {
+    kernel.setArg(index, value);
+    return index + 1;
+  }
+}
+
+// Sets every argument of `kernel` in order, so that no call site counts indices.
+template <class... Args>
+void set_args(cl::Kernel& kernel, const Args&... args) {
+  cl_uint index = 0;
+  ((index = set_arg(kernel, index, args)), ...);
+}
+
+// "call: CL_ERROR_NAME" for an exception thrown by the OpenCL C++ bindings.
+std::string describe(const cl::Error& e);
+
+}  // namespace spm

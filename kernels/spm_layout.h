@@ -1,0 +1,41 @@
+/* Every shared struct and field, listed once: the host static_asserts the
+ * sizes (host/device/layout.cpp) and the layout test compares the host's
+ * sizeof/offsetof with what kernels/spm_layout.cl reports from the device. */
+#ifndef SPM_LAYOUT_H
+#define SPM_LAYOUT_H
+
+#include "spm_types.h"
+
+/* S(struct, expected size in bytes) */
+#define SPM_LAYOUT_STRUCTS(S) \
+  S(SpmPrim, 48)              \
+  S(SpmPrimNormals, 48)       \
+  S(SpmBvhNode, 32)           \
+  S(SpmShape, 32)             \
+  S(SpmMaterial, 32)          \
+  S(SpmMedium, 32)            \
+  S(SpmLight, 112)            \
+  S(SpmLightPrim, 8)          \
+  S(SpmCamera, 96)
+
+/* F(struct, field) */
+#define SPM_LAYOUT_FIELDS(F)                                                                    \
+  F(SpmPrim, p0) F(SpmPrim, shape) F(SpmPrim, p1) F(SpmPrim, kind) F(SpmPrim, p2)               \
+  F(SpmPrim, normals)                                                                           \
+  F(SpmPrimNormals, n0) F(SpmPrimNormals, n1) F(SpmPrimNormals, n2)                             \
+  F(SpmBvhNode, lo) F(SpmBvhNode, offset) F(SpmBvhNode, hi) F(SpmBvhNode, count_axis)          \
+  F(SpmShape, material) F(SpmShape, interior) F(SpmShape, exterior) F(SpmShape, light)          \
+  F(SpmShape, flags)                                                                            \
+  F(SpmMaterial, reflectance) F(SpmMaterial, type) F(SpmMaterial, eta) F(SpmMaterial, twosided) \
+  F(SpmMedium, sigma_t) F(SpmMedium, g) F(SpmMedium, albedo) F(SpmMedium, phase)                \
+  F(SpmLight, emission) F(SpmLight, type) F(SpmLight, position) F(SpmLight, power)              \
+  F(SpmLight, axis_x) F(SpmLight, cos_cutoff) F(SpmLight, axis_y) F(SpmLight, cos_beam)         \
+  F(SpmLight, axis_z) F(SpmLight, cutoff) F(SpmLight, prim_begin) F(SpmLight, prim_count)       \
+  F(SpmLight, area) F(SpmLight, beam_width) F(SpmLight, medium)                                 \
+  F(SpmLightPrim, prim) F(SpmLightPrim, cdf)                                                    \
+  F(SpmCamera, origin) F(SpmCamera, tan_half_x) F(SpmCamera, axis_x) F(SpmCamera, tan_half_y)   \
+  F(SpmCamera, axis_y) F(SpmCamera, near_clip) F(SpmCamera, axis_z) F(SpmCamera, far_clip)      \
+  F(SpmCamera, width) F(SpmCamera, height) F(SpmCamera, medium) F(SpmCamera, filter)            \
+  F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)
+
+#endif

@@ -1,0 +1,150 @@
+/* Structs shared by the host (C++17) and the kernels (OpenCL C 1.2).
+ *
+ * Rules (STYLE.md): plain C, no float3 (its size differs between host and
+ * device), explicit padding so every struct is a multiple of 16 bytes. The host
+ * static_asserts the sizes (host/device/layout.cpp) and the layout test runs a
+ * kernel that reports the device's sizeof/offsetof for every field. */
+#ifndef SPM_TYPES_H
+#define SPM_TYPES_H
+
+#ifdef __OPENCL_VERSION__
+typedef uint spm_uint;
+typedef int spm_int;
+typedef float spm_float;
+#else
+#include <stdint.h>
+typedef uint32_t spm_uint;
+typedef int32_t spm_int;
+typedef float spm_float;
+#endif
+
+#define SPM_NONE 0xffffffffu
+
+/* Primitive kinds (SpmPrim.kind). */
+#define SPM_PRIM_TRIANGLE 0u
+#define SPM_PRIM_SPHERE 1u
+
+/* One ray-traceable primitive: a triangle or an analytic sphere, so that a glass
+ * sphere refracts exactly as in Mitsuba 3 (SCENES.md: shape sphere). */
+typedef struct SpmPrim {
+  spm_float p0[3]; /* triangle vertex 0; sphere centre */
+  spm_uint shape;  /* index into the SpmShape table */
+  spm_float p1[3]; /* triangle vertex 1; sphere: p1[0] = radius */
+  spm_uint kind;   /* SPM_PRIM_TRIANGLE or SPM_PRIM_SPHERE */
+  spm_float p2[3]; /* triangle vertex 2 */
+  spm_uint normals; /* index into the SpmPrimNormals table, or SPM_NONE (flat) */
+} SpmPrim;
+
+/* Per-vertex shading normals of one triangle (OBJ vertex normals). */
+typedef struct SpmPrimNormals {
+  spm_float n0[3];
+  spm_float n1[3];
+  spm_float n2[3];
+  spm_float pad[3];
+} SpmPrimNormals;
+
+/* Flattened BVH node (depth-first order). Interior: the first child is the next
+ * node, `offset` is the second child, `count` is 0 and `axis` the split axis.
+ * Leaf: primitives [offset, offset + count) of the reordered SpmPrim array. */
+typedef struct SpmBvhNode {
+  spm_float lo[3];
+  spm_uint offset;
+  spm_float hi[3];
+  spm_uint count_axis; /* leaf: count (> 0) << 2; interior: axis (0..2) */
+} SpmBvhNode;
+
+#define SPM_BVH_COUNT(n) ((n).count_axis >> 2)
+#define SPM_BVH_AXIS(n) ((n).count_axis & 3u)
+
+/* Shape flags. */
+#define SPM_SHAPE_FLIP_NORMALS 1u
+
+typedef struct SpmShape {
+  spm_uint material; /* index into SpmMaterial */
+  spm_int interior;  /* medium on the side opposite the normal, -1: none */
+  spm_int exterior;  /* medium on the side the normal points to, -1: none */
+  spm_int light;     /* area light index, -1: not an emitter */
+  spm_uint flags;
+  spm_uint pad[3];
+} SpmShape;
+
+/* Material types (SpmMaterial.type). */
+#define SPM_MAT_DIFFUSE 0u
+#define SPM_MAT_MIRROR 1u     /* conductor without material: perfect mirror */
+#define SPM_MAT_DIELECTRIC 2u
+#define SPM_MAT_NULL 3u       /* medium boundary: rays pass straight through */
+
+typedef struct SpmMaterial {
+  spm_float reflectance[3];
+  spm_uint type;
+  spm_float eta;     /* int_ior / ext_ior (dielectric) */
+  spm_uint twosided; /* diffuse / mirror reflect on both sides */
+  spm_uint pad[2];
+} SpmMaterial;
+
+#define SPM_PHASE_ISOTROPIC 0u
+#define SPM_PHASE_HG 1u
+
+/* Homogeneous medium, coefficients in inverse scene units (scale applied). */
+typedef struct SpmMedium {
+  spm_float sigma_t[3];
+  spm_float g;
+  spm_float albedo[3];
+  spm_uint phase;
+} SpmMedium;
+
+#define SPM_LIGHT_AREA 0u
+#define SPM_LIGHT_POINT 1u
+#define SPM_LIGHT_SPOT 2u
+
+typedef struct SpmLight {
+  spm_float emission[3]; /* area: radiance; point and spot: intensity */
+  spm_uint type;
+  spm_float position[3]; /* point, spot */
+  spm_float power;       /* mean over RGB of the emitted power (METHOD.md 2) */
+  spm_float axis_x[3];   /* spot frame: light shines along +axis_z */
+  spm_float cos_cutoff;
+  spm_float axis_y[3];
+  spm_float cos_beam;
+  spm_float axis_z[3];
+  spm_float cutoff;      /* radians */
+  spm_uint prim_begin;   /* area: range in the light-primitive table */
+  spm_uint prim_count;
+  spm_float area;        /* area: total surface area */
+  spm_float beam_width;  /* spot: radians */
+  spm_int medium;        /* medium the light sits in (area: shape exterior) */
+  spm_uint pad[3];
+} SpmLight;
+
+/* Area-light primitive table entry: cumulative area fraction, for sampling a
+ * point uniformly on the light's surface. */
+typedef struct SpmLightPrim {
+  spm_uint prim;
+  spm_float cdf; /* inclusive cumulative probability */
+} SpmLightPrim;
+
+#define SPM_FILTER_BOX 0u
+#define SPM_FILTER_GAUSSIAN 1u
+
+/* Pinhole camera. Local ray direction for film coordinates (u, v) in [0, 1]^2
+ * (u to the right, v down) is ((1 - 2u) tan_half_x, (1 - 2v) tan_half_y, 1),
+ * as in Mitsuba 3 where camera-space +x points left. */
+typedef struct SpmCamera {
+  spm_float origin[3];
+  spm_float tan_half_x;
+  spm_float axis_x[3];
+  spm_float tan_half_y;
+  spm_float axis_y[3];
+  spm_float near_clip;
+  spm_float axis_z[3];
+  spm_float far_clip;
+  spm_uint width;
+  spm_uint height;
+  spm_int medium; /* medium the camera sits in, -1: none */
+  spm_uint filter;
+  spm_float filter_stddev;
+  spm_float filter_radius;
+  spm_uint pad[2];
+} SpmCamera;
+
+#endif
