@@ -1,0 +1,163 @@
+/* Ray-primitive tests and the traversal of the flattened BVH built on the host
+ * (host/scene/bvh.cpp). */
+#ifndef SPM_LIB_INTERSECT_H
+#define SPM_LIB_INTERSECT_H
+
+#include "../spm_types.h"
+#include "math.h"
+
+#define SPM_BVH_STACK 64
+
+typedef struct SpmHit {
+  float t;
+  uint prim;
+  float u; /* barycentrics of p1 and p2 (triangles) */
+  float v;
+} SpmHit;
+
+/* Moller-Trumbore, both sides; t in (0, tmax). */
+inline bool hit_triangle(float3 o, float3 d, const __global SpmPrim* p, float tmax, float* t, float* u, float* v) {
+  const float3 p0 = load3(p->p0);
+  const float3 e1 = load3(p->p1) - p0;
+  const float3 e2 = load3(p->p2) - p0;
+  const float3 pv = cross(d, e2);
+  const float det = dot(e1, pv);
+  if (det == 0.0f) return false;
+  const float inv = 1.0f / det;
+  const float3 s = o - p0;
+  const float bu = dot(s, pv) * inv;
+  if (bu < 0.0f || bu > 1.0f) return false;
+  const float3 q = cross(s, e1);
+  const float bv = dot(d, q) * inv;
+  if (bv < 0.0f || bu + bv > 1.0f) return false;
+  const float tt = dot(e2, q) * inv;
+  if (!(tt > 0.0f && tt < tmax)) return false;
+  *t = tt;
+  *u = bu;
+  *v = bv;
+  return true;
+}
+
+/* Nearest root in (0, tmax) of |o + t d - c| = r, d unit length. The
+ * discriminant is computed from the distance of the ray to the centre, which
+ * keeps precision for spheres far from the origin (Ray Tracing Gems ch. 7). */
+inline bool hit_sphere(float3 o, float3 d, const __global SpmPrim* p, float tmax, float* t) {
+  const float3 c = load3(p->p0);
+  const float r = p->p1[0];
+  const float3 f = o - c;
+  const float b = -dot(f, d);
+  const float3 l = f + b * d;
+  const float disc = r * r - dot(l, l);
+  if (disc < 0.0f) return false;
+  const float sq = sqrt(disc);
+  const float t0 = b - sq;
+  const float t1 = b + sq;
+  const float tt = t0 > 0.0f ? t0 : t1;
+  if (!(tt > 0.0f && tt < tmax)) return false;
+  *t = tt;
+  return true;
+}
+
+inline bool hit_prim(float3 o, float3 d, const __global SpmPrim* p, float tmax, float* t, float* u, float* v) {
+  if (p->kind == SPM_PRIM_SPHERE) {
+    *u = 0.0f;
+    *v = 0.0f;
+    return hit_sphere(o, d, p, tmax, t);
+  }
+  return hit_triangle(o, d, p, tmax, t, u, v);
+}
+
+inline bool hit_box(const __global SpmBvhNode* n, float3 o, float3 inv_d, float tmax) {
+  const float3 t0 = (load3(n->lo) - o) * inv_d;
+  const float3 t1 = (load3(n->hi) - o) * inv_d;
+  const float3 tn = fmin(t0, t1);
+  const float3 tf = fmax(t0, t1);
+  const float enter = fmax(fmax(tn.x, tn.y), fmax(tn.z, 0.0f));
+  const float leave = fmin(fmin(tf.x, tf.y), fmin(tf.z, tmax));
+  return enter <= leave;
+}
+
+/* Closest hit in (0, tmax); false when the ray escapes. */
+inline bool trace_closest(const __global SpmBvhNode* nodes, const __global SpmPrim* prims, uint num_prims,
+                          float3 o, float3 d, float tmax, SpmHit* hit) {
+  hit->t = tmax;
+  hit->prim = SPM_NONE;
+  if (num_prims == 0) return false;
+  const float3 inv_d = 1.0f / d;
+  uint stack[SPM_BVH_STACK];
+  int top = 0;
+  uint node = 0;
+  for (;;) {
+    const __global SpmBvhNode* n = &nodes[node];
+    if (hit_box(n, o, inv_d, hit->t)) {
+      const uint count = SPM_BVH_COUNT(*n);
+      if (count > 0) {
+        for (uint i = n->offset; i < n->offset + count; ++i) {
+          float t, u, v;
+          if (hit_prim(o, d, &prims[i], hit->t, &t, &u, &v)) {
+            hit->t = t;
+            hit->prim = i;
+            hit->u = u;
+            hit->v = v;
+          }
+        }
+      } else {
+        /* Visit the child on the ray's near side first. */
+        const uint axis = SPM_BVH_AXIS(*n);
+        const float da = axis == 0 ? d.x : (axis == 1 ? d.y : d.z);
+        const uint near_child = da < 0.0f ? n->offset : node + 1;
+        const uint far_child = da < 0.0f ? node + 1 : n->offset;
+        stack[top++] = far_child;
+        node = near_child;
+        continue;
+      }
+    }
+    if (top == 0) break;
+    node = stack[--top];
+  }
+  return hit->prim != SPM_NONE;
+}
+
+/* Surface data at a hit. `ng` is the geometric normal and `ns` the shading
+ * normal, both on the side Mitsuba calls exterior (flip_normals applied). */
+typedef struct SpmSurface {
+  float3 p;
+  float3 ng;
+  float3 ns;
+  uint shape;
+} SpmSurface;
+
+inline SpmSurface surface_at(const __global SpmPrim* prims, const __global SpmPrimNormals* normals,
+                             const __global SpmShape* shapes, float3 o, float3 d, SpmHit h) {
+  const __global SpmPrim* p = &prims[h.prim];
+  SpmSurface s;
+  s.p = o + h.t * d;
+  s.shape = p->shape;
+  if (p->kind == SPM_PRIM_SPHERE) {
+    s.ng = normalize(s.p - load3(p->p0));
+    s.ns = s.ng;
+  } else {
+    const float3 p0 = load3(p->p0);
+    s.ng = normalize(cross(load3(p->p1) - p0, load3(p->p2) - p0));
+    s.ns = s.ng;
+    if (p->normals != SPM_NONE) {
+      const __global SpmPrimNormals* n = &normals[p->normals];
+      const float3 ns = (1.0f - h.u - h.v) * load3(n->n0) + h.u * load3(n->n1) + h.v * load3(n->n2);
+      const float len = length(ns);
+      if (len > 0.0f) s.ns = ns / len;
+    }
+  }
+  if (shapes[s.shape].flags & SPM_SHAPE_FLIP_NORMALS) {
+    s.ng = -s.ng;
+    s.ns = -s.ns;
+  }
+  return s;
+}
+
+/* Mitsuba's rule for the medium a direction leaves into: exterior on the side
+ * the normal points to, interior on the other. */
+inline int target_medium(const __global SpmShape* shape, float3 ng, float3 d) {
+  return dot(ng, d) > 0.0f ? shape->exterior : shape->interior;
+}
+
+#endif

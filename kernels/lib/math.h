@@ -1,0 +1,37 @@
+/* Small vector helpers shared by every kernel. */
+#ifndef SPM_LIB_MATH_H
+#define SPM_LIB_MATH_H
+
+#define SPM_PI 3.14159265358979323846f
+#define SPM_INV_PI 0.31830988618379067154f
+#define SPM_INF INFINITY
+
+inline float3 load3(const __global float* p) { return (float3)(p[0], p[1], p[2]); }
+
+inline float max_comp(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
+inline float mean_comp(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
+
+/* Orthonormal basis around a unit vector (Duff et al. 2017, branchless). */
+inline void make_basis(float3 n, float3* t, float3* b) {
+  const float sign = copysign(1.0f, n.z);
+  const float a = -1.0f / (sign + n.z);
+  const float c = n.x * n.y * a;
+  *t = (float3)(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
+  *b = (float3)(c, sign + n.y * n.y * a, -n.y);
+}
+
+inline float3 to_world(float3 v, float3 n) {
+  float3 t, b;
+  make_basis(n, &t, &b);
+  return v.x * t + v.y * b + v.z * n;
+}
+
+/* Offset for a ray leaving a surface at p towards the side `side_normal`
+ * points to: relative to the coordinates' magnitude, so scenes of any scale
+ * (the Cornell box is 100 units wide) avoid self-intersection. */
+inline float3 offset_origin(float3 p, float3 side_normal) {
+  const float scale = 1.0f + max_comp(fabs(p));
+  return p + side_normal * (2e-5f * scale);
+}
+
+#endif

@@ -1,0 +1,79 @@
+/* The scene tables every tracing kernel receives, in one fixed order. The host
+ * binds them with GpuScene (host/scene/gpu_scene.h) in the same order. */
+#ifndef SPM_LIB_SCENE_H
+#define SPM_LIB_SCENE_H
+
+#include "../spm_types.h"
+#include "intersect.h"
+
+#define SPM_SCENE_PARAMS                                                                          \
+  const __global SpmBvhNode *scene_nodes, const __global SpmPrim *scene_prims,                    \
+      const __global SpmPrimNormals *scene_normals, const __global SpmShape *scene_shapes,        \
+      const __global SpmMaterial *scene_materials, const __global SpmMedium *scene_media,         \
+      const __global SpmLight *scene_lights, const __global SpmLightPrim *scene_light_prims,      \
+      const __global float *scene_light_cdf, uint scene_num_prims, uint scene_num_lights
+
+#define SPM_SCENE                                                                                 \
+  make_scene(scene_nodes, scene_prims, scene_normals, scene_shapes, scene_materials, scene_media, \
+             scene_lights, scene_light_prims, scene_light_cdf, scene_num_prims, scene_num_lights)
+
+typedef struct SpmScene {
+  const __global SpmBvhNode* nodes;
+  const __global SpmPrim* prims;
+  const __global SpmPrimNormals* normals;
+  const __global SpmShape* shapes;
+  const __global SpmMaterial* materials;
+  const __global SpmMedium* media;
+  const __global SpmLight* lights;
+  const __global SpmLightPrim* light_prims;
+  const __global float* light_cdf; /* inclusive CDF over lights by power */
+  uint num_prims;
+  uint num_lights;
+} SpmScene;
+
+inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmPrim* prims,
+                           const __global SpmPrimNormals* normals, const __global SpmShape* shapes,
+                           const __global SpmMaterial* materials, const __global SpmMedium* media,
+                           const __global SpmLight* lights, const __global SpmLightPrim* light_prims,
+                           const __global float* light_cdf, uint num_prims, uint num_lights) {
+  SpmScene s;
+  s.nodes = nodes;
+  s.prims = prims;
+  s.normals = normals;
+  s.shapes = shapes;
+  s.materials = materials;
+  s.media = media;
+  s.lights = lights;
+  s.light_prims = light_prims;
+  s.light_cdf = light_cdf;
+  s.num_prims = num_prims;
+  s.num_lights = num_lights;
+  return s;
+}
+
+inline bool scene_trace(const SpmScene* s, float3 o, float3 d, float tmax, SpmHit* hit) {
+  return trace_closest(s->nodes, s->prims, s->num_prims, o, d, tmax, hit);
+}
+
+inline SpmSurface scene_surface(const SpmScene* s, float3 o, float3 d, SpmHit h) {
+  return surface_at(s->prims, s->normals, s->shapes, o, d, h);
+}
+
+/* Transmittance of a homogeneous medium over `dist` (paper eq. 2). */
+inline float3 medium_transmittance(const SpmScene* s, int medium, float dist) {
+  if (medium < 0) return (float3)(1.0f);
+  return exp(-load3(s->media[medium].sigma_t) * dist);
+}
+
+/* First index i with cdf[i] > u (cdf inclusive, last entry 1). */
+inline uint pick_from_cdf(const __global float* cdf, uint n, float u) {
+  uint lo = 0, hi = n - 1;
+  while (lo < hi) {
+    const uint mid = (lo + hi) / 2;
+    if (cdf[mid] > u) hi = mid;
+    else lo = mid + 1;
+  }
+  return lo;
+}
+
+#endif
