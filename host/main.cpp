@@ -1,0 +1,147 @@
+// spm: streamed photon mapping in participating media, on OpenCL.
+// Command line only: parse, then call the library.
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+
+#include "device/device.h"
+#include "film/image_io.h"
+#include "render/render.h"
+#include "scene/loader.h"
+#include "util/errors.h"
+
+namespace {
+
+std::string gib(cl_ulong bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f GiB", bytes / (1024.0 * 1024.0 * 1024.0));
+  return buf;
+}
+
+int cmd_devices() {
+  const auto devices = spm::list_devices();
+  if (devices.empty()) {
+    std::cout << "no OpenCL device found\n";
+    return 0;
+  }
+  for (const auto& d : devices) {
+    std::cout << d.platform << ":" << d.index << "  " << d.name << "  [" << d.type << ", " << d.version << ", "
+              << d.compute_units << " compute units, " << gib(d.global_memory) << "]  platform: " << d.platform_name
+              << "\n";
+  }
+  return 0;
+}
+
+struct RenderArgs {
+  std::string scene, output, png, device, res, kernel_dir;
+  std::vector<std::string> defines;
+  spm::RenderSettings settings;
+};
+
+std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
+  std::map<std::string, std::string> out;
+  for (const auto& d : defines) {
+    const auto eq = d.find('=');
+    if (eq == std::string::npos || eq == 0) throw spm::InputError("-D", "expected name=value, got '" + d + "'");
+    out[d.substr(0, eq)] = d.substr(eq + 1);
+  }
+  return out;
+}
+
+void parse_res(const std::string& res, spm::RenderSettings& s) {
+  if (res.empty()) return;
+  int w = 0, h = 0;
+  char tail = 0;
+  if (std::sscanf(res.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1) {
+    throw spm::InputError("--res", "expected WIDTHxHEIGHT, got '" + res + "'");
+  }
+  s.width = w;
+  s.height = h;
+}
+
+int cmd_render(const RenderArgs& a) {
+  spm::RenderSettings settings = a.settings;
+  parse_res(a.res, settings);
+  const spm::Scene scene = spm::load_scene(a.scene, parse_defines(a.defines));
+  settings = spm::resolve_settings(scene, settings);
+  const spm::DeviceInfo info = spm::select_device(a.device);
+  spm::Device device(info, a.kernel_dir);
+
+  const bool tty = ::isatty(STDERR_FILENO);
+  std::cerr << "spm: rendering " << a.scene << " at " << settings.width << "x" << settings.height << ", "
+            << settings.passes << " pass(es) x " << settings.spp << " spp on " << info.name << "\n";
+  const auto progress = [tty](int done, int total) {
+    if (tty) {
+      const int width = 40, filled = width * done / total;
+      std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] " << done << "/"
+                << total << (done == total ? "\n" : "") << std::flush;
+    } else {
+      std::cerr << "spm: pass " << done << "/" << total << " done\n";
+    }
+  };
+  spm::RenderStats stats;
+  const spm::Image image = spm::render(scene, settings, device, &stats, progress);
+  spm::write_exr(a.output, image);
+  const std::string png =
+      a.png.empty() ? std::filesystem::path(a.output).replace_extension(".png").string() : a.png;
+  spm::write_png(png, image);
+  std::fprintf(stderr, "spm: wrote %s and %s (%d passes in %.2f s; kernel build %.2f s, BVH %.3f s)\n",
+               a.output.c_str(), png.c_str(), stats.passes, stats.seconds, stats.build_seconds, stats.bvh_seconds);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"spm: streamed photon mapping in participating media, on OpenCL"};
+  app.require_subcommand(1);
+  app.set_help_all_flag("--help-all", "Help for every subcommand");
+
+  auto* devices = app.add_subcommand("devices", "List every OpenCL platform and device as P:D");
+
+  RenderArgs r;
+  auto* render = app.add_subcommand("render", "Render a scene file (Mitsuba 3 XML subset) to OpenEXR");
+  render->add_option("scene", r.scene, "Scene file")->required();
+  render->add_option("-o,--output", r.output, "Output OpenEXR file (32-bit float RGB)")->required();
+  render->add_option("--png", r.png, "PNG preview (clamped, sRGB); default: beside the EXR");
+  render->add_option("--device", r.device,
+                     "Device: P:D or a case-insensitive name substring; default: first GPU, else first CPU");
+  render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT, overriding the scene's film");
+  render->add_option("--spp", r.settings.spp, "Camera samples per pixel per pass")->check(CLI::PositiveNumber);
+  render->add_option("--passes", r.settings.passes, "Number of passes")->check(CLI::PositiveNumber);
+  render->add_option("--seed", r.settings.seed, "Random seed");
+  render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value");
+  render->add_option("--kernel-dir", r.kernel_dir,
+                     "Load kernels from this directory instead of the embedded sources")
+      ->check(CLI::ExistingDirectory);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "spm: " << e.what() << " (see --help)\n";
+    return spm::kExitInput;
+  }
+
+  try {
+    if (*devices) return cmd_devices();
+    if (*render) return cmd_render(r);
+  } catch (const spm::InputError& e) {
+    std::cerr << "spm: " << e.what() << "\n";
+    return spm::kExitInput;
+  } catch (const cl::Error& e) {
+    std::cerr << "spm: OpenCL error: " << spm::describe(e) << "\n";
+    return spm::kExitRuntime;
+  } catch (const std::exception& e) {
+    std::cerr << "spm: " << e.what() << "\n";
+    return spm::kExitRuntime;
+  }
+  return 0;
+}

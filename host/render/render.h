@@ -1,0 +1,45 @@
+// A progressive render: independent passes (METHOD.md 6), each keyed only by
+// (seed, pass), averaged in pass order into the image.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "device/device.h"
+#include "film/image_io.h"
+#include "scene/scene.h"
+
+namespace spm {
+
+struct RenderSettings {
+  int width = 0;  // 0: the scene's film size
+  int height = 0;
+  int spp = 0;     // 0: the scene's sampler sample_count
+  int passes = 0;  // 0: the integrator's `passes`
+  uint32_t seed = 0;
+  int max_depth = 0;  // 0: the integrator's `max_depth`
+};
+
+struct RenderStats {
+  int passes = 0;
+  double seconds = 0.0;         // wall clock of the passes
+  double bvh_seconds = 0.0;
+  double build_seconds = 0.0;   // kernel program builds
+};
+
+// Called after each finished pass with (passes done, passes in total).
+using Progress = std::function<void(int, int)>;
+
+// Largest max_depth a camera path may use: its events must fit the 256 the
+// gather kernel gives each sample (kernels/spm_gather.cl).
+constexpr int kMaxDepthLimit = 60;
+
+// Validates settings against the scene and fills the zeros from it; throws
+// InputError for values out of range.
+RenderSettings resolve_settings(const Scene& scene, RenderSettings s);
+
+Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats = nullptr,
+             const Progress& progress = {});
+
+}  // namespace spm

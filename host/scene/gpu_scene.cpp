@@ -1,0 +1,251 @@
+#include "scene/gpu_scene.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "scene/bvh.h"
+#include "util/errors.h"
+
+namespace spm {
+
+namespace {
+
+constexpr float kPi = 3.14159265358979323846f;
+
+void put3(float* dst, const glm::vec3& v) {
+  dst[0] = v.x;
+  dst[1] = v.y;
+  dst[2] = v.z;
+}
+
+float mean(const glm::vec3& v) { return (v.x + v.y + v.z) / 3.0f; }
+
+float triangle_area(const SpmPrim& p) {
+  const glm::vec3 a(p.p0[0], p.p0[1], p.p0[2]);
+  const glm::vec3 b(p.p1[0], p.p1[1], p.p1[2]);
+  const glm::vec3 c(p.p2[0], p.p2[1], p.p2[2]);
+  return 0.5f * glm::length(glm::cross(b - a, c - a));
+}
+
+float prim_area(const SpmPrim& p) {
+  return p.kind == SPM_PRIM_SPHERE ? 4.0f * kPi * p.p1[0] * p.p1[0] : triangle_area(p);
+}
+
+// Integral over the sphere of Mitsuba's spot falloff: 2 pi int falloff(theta) sin(theta).
+float spot_solid_angle(float cutoff, float beam) {
+  const int steps = 4096;
+  double sum = 0.0;
+  for (int i = 0; i < steps; ++i) {
+    const double theta = (i + 0.5) * cutoff / steps;
+    const double f = theta <= beam ? 1.0 : (cutoff - theta) / (cutoff - beam);
+    sum += f * std::sin(theta);
+  }
+  return static_cast<float>(2.0 * kPi * sum * cutoff / steps);
+}
+
+SpmCamera make_camera(const Camera& c, int width, int height) {
+  SpmCamera out{};
+  const glm::vec3 origin(c.to_world[3]);
+  put3(out.origin, origin);
+  put3(out.axis_x, glm::vec3(c.to_world[0]));
+  put3(out.axis_y, glm::vec3(c.to_world[1]));
+  put3(out.axis_z, glm::vec3(c.to_world[2]));
+  const float t = std::tan(glm::radians(c.fov) * 0.5f);
+  const float w = static_cast<float>(width), h = static_cast<float>(height);
+  Camera::FovAxis axis = c.fov_axis;
+  if (axis == Camera::FovAxis::Smaller) axis = w <= h ? Camera::FovAxis::X : Camera::FovAxis::Y;
+  if (axis == Camera::FovAxis::Larger) axis = w >= h ? Camera::FovAxis::X : Camera::FovAxis::Y;
+  switch (axis) {
+    case Camera::FovAxis::X:
+      out.tan_half_x = t;
+      out.tan_half_y = t * h / w;
+      break;
+    case Camera::FovAxis::Y:
+      out.tan_half_y = t;
+      out.tan_half_x = t * w / h;
+      break;
+    default: {
+      const float diag = std::sqrt(w * w + h * h);
+      out.tan_half_x = t * w / diag;
+      out.tan_half_y = t * h / diag;
+    }
+  }
+  out.near_clip = c.near_clip;
+  out.far_clip = c.far_clip;
+  out.width = static_cast<spm_uint>(width);
+  out.height = static_cast<spm_uint>(height);
+  out.medium = c.medium;
+  out.filter = c.filter == Camera::Filter::Box ? SPM_FILTER_BOX : SPM_FILTER_GAUSSIAN;
+  out.filter_stddev = c.filter_stddev;
+  out.filter_radius = 4.0f * c.filter_stddev;  // Mitsuba's Gaussian support
+  return out;
+}
+
+}  // namespace
+
+glm::vec3 light_power(const Scene& scene, const Light& light) {
+  switch (light.type) {
+    case Light::Type::Point:
+      return 4.0f * kPi * light.intensity;
+    case Light::Type::Spot:
+      return light.intensity *
+             spot_solid_angle(glm::radians(light.cutoff_angle), glm::radians(light.beam_width));
+    case Light::Type::Area:
+    default: {
+      const Shape& s = scene.shapes[light.shape];
+      float area = 0.0f;
+      if (s.kind == Shape::Kind::Sphere) {
+        area = 4.0f * kPi * s.radius * s.radius;
+      } else {
+        for (const auto& t : s.triangles) {
+          area += 0.5f * glm::length(glm::cross(s.positions[t.y] - s.positions[t.x], s.positions[t.z] - s.positions[t.x]));
+        }
+      }
+      return kPi * area * light.radiance;
+    }
+  }
+}
+
+SceneTables flatten_scene(const Scene& scene, int width, int height) {
+  SceneTables t;
+  for (const auto& m : scene.materials) {
+    SpmMaterial g{};
+    put3(g.reflectance, m.reflectance);
+    g.type = m.type == Material::Type::Diffuse   ? SPM_MAT_DIFFUSE
+             : m.type == Material::Type::Mirror  ? SPM_MAT_MIRROR
+             : m.type == Material::Type::Dielectric ? SPM_MAT_DIELECTRIC
+                                                 : SPM_MAT_NULL;
+    g.eta = m.int_ior / m.ext_ior;
+    g.twosided = m.twosided ? 1u : 0u;
+    t.materials.push_back(g);
+  }
+  for (const auto& m : scene.media) {
+    SpmMedium g{};
+    put3(g.sigma_t, m.sigma_t);
+    put3(g.albedo, m.albedo);
+    g.g = m.hg ? m.g : 0.0f;
+    g.phase = m.hg ? SPM_PHASE_HG : SPM_PHASE_ISOTROPIC;
+    t.media.push_back(g);
+  }
+  for (size_t i = 0; i < scene.shapes.size(); ++i) {
+    const Shape& s = scene.shapes[i];
+    SpmShape g{};
+    g.material = static_cast<spm_uint>(s.material);
+    g.interior = s.interior;
+    g.exterior = s.exterior;
+    g.light = s.light;
+    g.flags = s.flip_normals ? SPM_SHAPE_FLIP_NORMALS : 0u;
+    t.shapes.push_back(g);
+    if (s.kind == Shape::Kind::Sphere) {
+      SpmPrim p{};
+      put3(p.p0, s.center);
+      p.p1[0] = s.radius;
+      p.kind = SPM_PRIM_SPHERE;
+      p.shape = static_cast<spm_uint>(i);
+      p.normals = SPM_NONE;
+      t.prims.push_back(p);
+      continue;
+    }
+    for (const auto& tri : s.triangles) {
+      SpmPrim p{};
+      put3(p.p0, s.positions[tri.x]);
+      put3(p.p1, s.positions[tri.y]);
+      put3(p.p2, s.positions[tri.z]);
+      p.kind = SPM_PRIM_TRIANGLE;
+      p.shape = static_cast<spm_uint>(i);
+      p.normals = SPM_NONE;
+      if (!s.normals.empty()) {
+        SpmPrimNormals n{};
+        put3(n.n0, s.normals[tri.x]);
+        put3(n.n1, s.normals[tri.y]);
+        put3(n.n2, s.normals[tri.z]);
+        p.normals = static_cast<spm_uint>(t.normals.size());
+        t.normals.push_back(n);
+      }
+      t.prims.push_back(p);
+    }
+  }
+
+  const auto start = std::chrono::steady_clock::now();
+  t.nodes = build_bvh(t.prims).nodes;
+  t.bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // Lights, after the BVH reordered the primitives.
+  std::vector<std::vector<spm_uint>> prims_of_shape(scene.shapes.size());
+  for (size_t i = 0; i < t.prims.size(); ++i) prims_of_shape[t.prims[i].shape].push_back(static_cast<spm_uint>(i));
+  double total = 0.0;
+  std::vector<double> powers;
+  for (const auto& l : scene.lights) {
+    SpmLight g{};
+    const glm::vec3 power = light_power(scene, l);
+    g.power = mean(power);
+    g.medium = l.medium;
+    if (!(g.power > 0.0f) || !std::isfinite(g.power)) {
+      throw InputError(l.where, "light emits no power (zero radiance, intensity or area)");
+    }
+    if (l.type == Light::Type::Area) {
+      g.type = SPM_LIGHT_AREA;
+      put3(g.emission, l.radiance);
+      const auto& ids = prims_of_shape[l.shape];
+      g.prim_begin = static_cast<spm_uint>(t.light_prims.size());
+      g.prim_count = static_cast<spm_uint>(ids.size());
+      double area = 0.0;
+      for (spm_uint id : ids) area += prim_area(t.prims[id]);
+      double acc = 0.0;
+      for (size_t k = 0; k < ids.size(); ++k) {
+        acc += prim_area(t.prims[ids[k]]);
+        const float cdf = k + 1 == ids.size() ? 1.0f : static_cast<float>(acc / area);
+        t.light_prims.push_back({ids[k], cdf});
+      }
+      g.area = static_cast<float>(area);
+    } else {
+      g.type = l.type == Light::Type::Point ? SPM_LIGHT_POINT : SPM_LIGHT_SPOT;
+      put3(g.emission, l.intensity);
+      put3(g.position, glm::vec3(l.type == Light::Type::Point ? glm::vec4(l.position, 1.0f) : l.to_world[3]));
+      put3(g.axis_x, glm::normalize(glm::vec3(l.to_world[0])));
+      put3(g.axis_y, glm::normalize(glm::vec3(l.to_world[1])));
+      put3(g.axis_z, glm::normalize(glm::vec3(l.to_world[2])));
+      g.cutoff = glm::radians(l.cutoff_angle);
+      g.beam_width = glm::radians(std::min(l.beam_width, l.cutoff_angle));
+      g.cos_cutoff = std::cos(g.cutoff);
+      g.cos_beam = std::cos(g.beam_width);
+    }
+    t.lights.push_back(g);
+    powers.push_back(g.power);
+    total += g.power;
+  }
+  if (t.lights.empty()) throw InputError(scene.path, "scene has no light");
+  double acc = 0.0;
+  for (size_t i = 0; i < powers.size(); ++i) {
+    acc += powers[i];
+    t.light_cdf.push_back(i + 1 == powers.size() ? 1.0f : static_cast<float>(acc / total));
+  }
+  t.camera = make_camera(scene.camera, width, height);
+  return t;
+}
+
+GpuScene::GpuScene(Device& device, const SceneTables& t)
+    : nodes_(device.upload(t.nodes)),
+      prims_(device.upload(t.prims)),
+      normals_(device.upload(t.normals)),
+      shapes_(device.upload(t.shapes)),
+      materials_(device.upload(t.materials)),
+      media_(device.upload(t.media)),
+      lights_(device.upload(t.lights)),
+      light_prims_(device.upload(t.light_prims)),
+      light_cdf_(device.upload(t.light_cdf)),
+      camera_(device.upload(std::vector<SpmCamera>{t.camera})),
+      num_prims_(static_cast<cl_uint>(t.prims.size())),
+      num_lights_(static_cast<cl_uint>(t.lights.size())) {}
+
+cl_uint GpuScene::bind(cl::Kernel& k, cl_uint i) const {
+  for (const cl::Buffer* b : {&nodes_, &prims_, &normals_, &shapes_, &materials_, &media_, &lights_, &light_prims_,
+                              &light_cdf_}) {
+    k.setArg(i++, *b);
+  }
+  k.setArg(i++, num_prims_);
+  k.setArg(i++, num_lights_);
+  return i;
+}
+
+}  // namespace spm

@@ -1,0 +1,50 @@
+// The scene as the kernels see it: flat tables of the shared structs
+// (kernels/spm_types.h), and their device buffers bound in the order of
+// SPM_SCENE_PARAMS (kernels/lib/scene.h).
+#pragma once
+
+#include <vector>
+
+#include "device/device.h"
+#include "scene/scene.h"
+#include "spm_types.h"
+
+namespace spm {
+
+struct SceneTables {
+  std::vector<SpmBvhNode> nodes;
+  std::vector<SpmPrim> prims;  // in BVH leaf order
+  std::vector<SpmPrimNormals> normals;
+  std::vector<SpmShape> shapes;
+  std::vector<SpmMaterial> materials;
+  std::vector<SpmMedium> media;
+  std::vector<SpmLight> lights;
+  std::vector<SpmLightPrim> light_prims;
+  std::vector<float> light_cdf;  // inclusive, by power
+  SpmCamera camera{};
+  double bvh_seconds = 0.0;
+};
+
+// Flattens `scene` for film size width x height. Throws InputError when the
+// scene cannot be rendered (no light with positive power, ...).
+SceneTables flatten_scene(const Scene& scene, int width, int height);
+
+// Emitted power of a light in the file's RGB (METHOD.md 2): area pi A L_e,
+// point 4 pi I, spot I times its falloff profile integrated over the sphere.
+glm::vec3 light_power(const Scene& scene, const Light& light);
+
+class GpuScene {
+ public:
+  GpuScene(Device& device, const SceneTables& tables);
+
+  // Binds the SPM_SCENE_PARAMS arguments from `index` on; returns the next index.
+  cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
+
+  const cl::Buffer& camera() const { return camera_; }
+
+ private:
+  cl::Buffer nodes_, prims_, normals_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, camera_;
+  cl_uint num_prims_ = 0, num_lights_ = 0;
+};
+
+}  // namespace spm

@@ -1,0 +1,107 @@
+// The plain scene the loader produces: what a Mitsuba 3 file (SCENES.md subset)
+// describes, resolved into world space. Nothing here knows about OpenCL.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace spm {
+
+struct Material {
+  enum class Type { Diffuse, Mirror, Dielectric, Null };
+  Type type = Type::Diffuse;
+  glm::vec3 reflectance{0.5f};  // Mitsuba's default bsdf is diffuse 0.5
+  float int_ior = 1.5046f;      // Mitsuba's dielectric defaults: bk7 inside,
+  float ext_ior = 1.000277f;    // air outside
+  bool twosided = false;
+  std::string where;  // "file:line" of the element, for messages
+};
+
+struct Medium {
+  glm::vec3 sigma_t{1.0f};  // already multiplied by `scale`
+  glm::vec3 albedo{0.75f};  // Mitsuba 3's homogeneous defaults
+  bool hg = false;          // phase: isotropic, or Henyey-Greenstein with g
+  float g = 0.0f;
+  std::string where;
+};
+
+struct Light {
+  enum class Type { Area, Point, Spot };
+  Type type = Type::Area;
+  glm::vec3 radiance{1.0f};   // area
+  glm::vec3 intensity{1.0f};  // point, spot
+  glm::vec3 position{0.0f};   // point, spot (world)
+  glm::mat4 to_world{1.0f};   // spot: shines along its local +z
+  float cutoff_angle = 20.0f;  // spot, degrees
+  float beam_width = 15.0f;    // spot, degrees (Mitsuba: 3/4 of cutoff)
+  int shape = -1;              // area: index of the shape it is attached to
+  int medium = -1;             // medium the emitter sits in (area: shape exterior)
+  std::string where;
+};
+
+// A shape resolved to world space: a triangle mesh or an analytic sphere.
+struct Shape {
+  enum class Kind { Mesh, Sphere };
+  Kind kind = Kind::Mesh;
+  std::vector<glm::vec3> positions;  // mesh, world space
+  std::vector<glm::vec3> normals;    // mesh, world space, per vertex; empty = flat
+  std::vector<glm::uvec3> triangles;
+  glm::vec3 center{0.0f};  // sphere, world space
+  float radius = 1.0f;
+  bool flip_normals = false;
+  int material = -1;  // index into Scene::materials (always set after loading)
+  int interior = -1;  // index into Scene::media, -1: none
+  int exterior = -1;
+  int light = -1;     // index into Scene::lights when the shape is an area emitter
+  std::string where;
+};
+
+struct Camera {
+  enum class FovAxis { X, Y, Smaller, Larger, Diagonal };
+  enum class Filter { Box, Gaussian };
+  glm::mat4 to_world{1.0f};  // camera looks along local +z, local +x is left
+  float fov = 39.597755f;    // degrees; Mitsuba's default 50 mm focal length
+  FovAxis fov_axis = FovAxis::X;
+  float near_clip = 0.01f;
+  float far_clip = 10000.0f;
+  int width = 768;  // Mitsuba's hdrfilm defaults
+  int height = 576;
+  Filter filter = Filter::Gaussian;
+  float filter_stddev = 0.5f;
+  int spp = 4;  // sampler sample_count: samples per pixel per pass
+  int medium = -1;
+  std::string where;
+};
+
+// <integrator type="spm"> properties. Values not given in the file keep these
+// defaults; command-line flags override both.
+struct IntegratorSettings {
+  bool present = false;  // false when the file has no spm integrator
+  int streams = 10000;
+  int associated = 100;
+  float radius = 2.5f;
+  float width = 2.5f;
+  int max_bounces = 4;
+  float march_step = 0.0f;
+  int passes = 1;
+  float time = 0.0f;  // seconds; 0: not time-limited
+  int max_depth = 16;  // specular chain cap of camera rays
+  std::string estimator = "bre";
+  std::string where;
+};
+
+struct Scene {
+  std::string path;  // the file it was loaded from
+  Camera camera;
+  IntegratorSettings integrator;
+  std::vector<Material> materials;
+  std::vector<Medium> media;
+  std::vector<Light> lights;
+  std::vector<Shape> shapes;
+};
+
+}  // namespace spm

@@ -1,0 +1,153 @@
+// The spm executable: exit codes (0 success, 2 bad input, 1 runtime failure),
+// one clear line for bad input, and complete output files.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "film/image_io.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Outcome {
+  int code;
+  std::string err;
+};
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("spm_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(path(name)) << text;
+    return path(name);
+  }
+
+  Outcome run(const std::string& args) const {
+    const std::string err = path("stderr.txt");
+    const std::string cmd = std::string(SPM_BINARY) + " " + args + " >/dev/null 2>" + err + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    std::ifstream in(err);
+    std::stringstream s;
+    s << in.rdbuf();
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+  }
+
+  fs::path dir_;
+};
+
+const char* kTinyScene = R"(<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="45"/>
+    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="12"/></film>
+  </sensor>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>
+  <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="5"/></emitter>
+</scene>
+)";
+
+int count_lines(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+TEST_F(Cli, RendersATinySceneToCompleteFiles) {
+  const std::string scene = write("tiny.xml", kTinyScene);
+  const Outcome r = run("render " + scene + " -o " + path("out/tiny.exr") + " --spp 2 --passes 2");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const spm::Image img = spm::read_exr(path("out/tiny.exr"));
+  EXPECT_EQ(img.width, 16);
+  EXPECT_EQ(img.height, 12);
+  EXPECT_TRUE(fs::exists(path("out/tiny.png")));
+  double sum = 0;
+  for (float v : img.rgb) sum += v;
+  EXPECT_GT(sum, 0.0);  // the point light lights the plane
+  for (const auto& e : fs::directory_iterator(path("out"))) {
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+  }
+}
+
+TEST_F(Cli, ResolutionOverride) {
+  const std::string scene = write("tiny.xml", kTinyScene);
+  ASSERT_EQ(run("render " + scene + " -o " + path("r.exr") + " --res 7x5 --spp 1").code, 0);
+  const spm::Image img = spm::read_exr(path("r.exr"));
+  EXPECT_EQ(img.width, 7);
+  EXPECT_EQ(img.height, 5);
+}
+
+TEST_F(Cli, MissingSceneFileIsBadInput) {
+  const Outcome r = run("render " + path("nope.xml") + " -o " + path("o.exr"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("nope.xml"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_FALSE(fs::exists(path("o.exr")));
+}
+
+TEST_F(Cli, MalformedXmlNamesFileAndLine) {
+  const std::string scene = write("bad.xml", "<scene version=\"3.0.0\">\n  <shape type=\"cube\">\n</scene>\n");
+  const Outcome r = run("render " + scene + " -o " + path("o.exr"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.xml:"), std::string::npos) << r.err;
+  EXPECT_EQ(count_lines(r.err), 1) << r.err;
+  EXPECT_FALSE(fs::exists(path("o.exr")));
+}
+
+TEST_F(Cli, UnknownPluginNamesFileAndLine) {
+  const std::string scene = write("bad.xml", std::string(kTinyScene).replace(
+      std::string(kTinyScene).find("rectangle"), 9, "torus"));
+  const Outcome r = run("render " + scene + " -o " + path("o.exr"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.xml:7"), std::string::npos) << r.err;
+}
+
+TEST_F(Cli, BadDeviceSelectorIsBadInput) {
+  const std::string scene = write("tiny.xml", kTinyScene);
+  const Outcome r = run("render " + scene + " -o " + path("o.exr") + " --device 9:9");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("9:9"), std::string::npos) << r.err;
+  EXPECT_EQ(run("render " + scene + " -o " + path("o.exr") + " --device no-such-device").code, 2);
+}
+
+TEST_F(Cli, UsageErrorsAreBadInput) {
+  EXPECT_EQ(run("").code, 2);
+  EXPECT_EQ(run("render").code, 2);
+  EXPECT_EQ(run("render x.xml -o o.exr --spp 0").code, 2);
+  EXPECT_EQ(run("render x.xml -o o.exr --no-such-flag").code, 2);
+  const std::string scene = write("tiny.xml", kTinyScene);
+  EXPECT_EQ(run("render " + scene + " -o " + path("o.exr") + " --res 0x10").code, 2);
+  EXPECT_EQ(run("render " + scene + " -o " + path("o.exr") + " -D nodefault=3").code, 2);
+}
+
+TEST_F(Cli, HelpAndDevicesSucceed) {
+  EXPECT_EQ(run("--help").code, 0);
+  EXPECT_EQ(run("render --help").code, 0);
+  EXPECT_EQ(run("devices --help").code, 0);
+  EXPECT_EQ(run("devices").code, 0);
+}
+
+TEST_F(Cli, KernelCompileErrorIsRuntimeFailureWithBuildLog) {
+  const std::string scene = write("tiny.xml", kTinyScene);
+  fs::create_directories(path("kernels"));
+  write("kernels/spm_gather.cl", "__kernel void spm_gather(__global float* x) { this is not C; }\n");
+  const Outcome r = run("render " + scene + " -o " + path("o.exr") + " --kernel-dir " + path("kernels"));
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("CL_BUILD_PROGRAM_FAILURE"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("spm_gather.cl:1"), std::string::npos) << r.err;  // the device's build log
+  EXPECT_FALSE(fs::exists(path("o.exr")));
+}
+
+}  // namespace
