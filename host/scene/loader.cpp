@@ -1,0 +1,675 @@
+// The plugins of the SCENES.md subset, read into a plain spm::Scene.
+#include "scene/loader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+#include <iostream>
+#include <utility>
+
+#include "scene/obj.h"
+#include "scene/xml_context.h"
+#include "scene/xml_props.h"
+#include "scene/xml_transform.h"
+#include "util/errors.h"
+
+namespace spm {
+
+namespace {
+
+using xml::Props;
+
+bool non_negative(const glm::vec3& c) { return glm::all(glm::greaterThanEqual(c, glm::vec3(0.0f))); }
+bool in_unit_range(const glm::vec3& c) { return non_negative(c) && glm::all(glm::lessThanEqual(c, glm::vec3(1.0f))); }
+
+// Mitsuba's named indices of refraction (its ior.h table).
+const std::pair<const char*, float> kNamedIor[] = {
+    {"vacuum", 1.0f},      {"helium", 1.00004f},         {"hydrogen", 1.00013f},
+    {"air", 1.000277f},    {"carbon dioxide", 1.00045f}, {"water", 1.3330f},
+    {"acetone", 1.36f},    {"ethanol", 1.361f},          {"carbon tetrachloride", 1.461f},
+    {"glycerol", 1.4729f}, {"benzene", 1.501f},          {"silicone oil", 1.52045f},
+    {"bromine", 1.661f},   {"water ice", 1.31f},         {"fused quartz", 1.458f},
+    {"pyrex", 1.470f},     {"acrylic glass", 1.49f},     {"polypropylene", 1.49f},
+    {"bk7", 1.5046f},      {"sodium chloride", 1.544f},  {"amber", 1.55f},
+    {"pet", 1.5750f},      {"diamond", 2.419f},
+};
+
+class Loader {
+ public:
+  explicit Loader(const std::map<std::string, std::string>& overrides) : ctx_(overrides) {}
+
+  Scene load(const std::string& xml, const std::string& name) {
+    scene_.path = name;
+    pugi::xml_node root = ctx_.push_source(xml, name);
+    parse_children(root);
+    ctx_.check_overrides(root);
+    if (scene_.lights.empty()) ctx_.fail(root, "scene has no light (no emitter)");
+    return std::move(scene_);
+  }
+
+ private:
+  // What an id names, so that a ref can be checked for the right kind.
+  struct Named {
+    std::string tag;  // element name: "bsdf", "medium", "shape", ...
+    int index = -1;   // into Scene::materials / media for bsdf and medium
+    std::string where;
+  };
+
+  void parse_children(const pugi::xml_node& scene) {
+    for (const pugi::xml_node& node : ctx_.elements(scene)) {
+      std::string tag = node.name();
+      if (tag == "default")
+        ctx_.define_default(node);
+      else if (tag == "include")
+        parse_include(node);
+      else if (tag == "sensor")
+        parse_sensor(node);
+      else if (tag == "shape")
+        parse_shape(node);
+      else if (tag == "bsdf")
+        add_bsdf(node);
+      else if (tag == "medium")
+        add_medium(node);
+      else if (tag == "emitter")
+        parse_emitter(node);
+      else if (tag == "integrator")
+        parse_integrator(node);
+      else
+        ctx_.fail(node, "unknown or unsupported tag <" + tag + "> in <scene>");
+    }
+  }
+
+  // The children of an included <scene> are read as if they were written here.
+  void parse_include(const pugi::xml_node& node) {
+    ctx_.check_attributes(node, {"filename"});
+    std::string path = ctx_.resolve(ctx_.attr(node, "filename"));
+    if (ctx_.is_open(path)) ctx_.fail(node, "<include> of '" + path + "' includes itself");
+    std::string text = xml::read_text_file(path, ctx_.where(node), "included file");
+    pugi::xml_node root = ctx_.push_source(text, path);
+    parse_children(root);
+    ctx_.pop_source();
+  }
+
+  // Checks the attributes every plugin element may have and returns its type.
+  std::string object_type(const pugi::xml_node& node) {
+    ctx_.check_attributes(node, {"type", "id", "name"});
+    return ctx_.attr(node, "type");
+  }
+
+  void register_id(const pugi::xml_node& node, int index) {
+    std::optional<std::string> id = ctx_.opt_attr(node, "id");
+    if (!id) return;
+    if (id->empty()) ctx_.fail(node, "empty id");
+    if (ids_.count(*id)) ctx_.fail(node, "duplicate id '" + *id + "' (first used at " + ids_[*id].where + ")");
+    ids_[*id] = {node.name(), index, ctx_.where(node)};
+  }
+
+  // <ref id=".."/>: the index of the earlier object it names, which must be a `tag`.
+  int resolve_ref(const pugi::xml_node& ref, const std::string& tag) {
+    ctx_.check_attributes(ref, {"id", "name"});
+    std::string id = ctx_.attr(ref, "id");
+    auto it = ids_.find(id);
+    if (it == ids_.end()) ctx_.fail(ref, "<ref> to unknown id '" + id + "' (ids must be defined before use)");
+    if (it->second.tag != tag)
+      ctx_.fail(ref, "<ref id=\"" + id + "\"> names a " + it->second.tag + " where a " + tag + " is expected");
+    return it->second.index;
+  }
+
+  // The kind a <ref> points at, to dispatch refs whose role depends on it.
+  std::string ref_tag(const pugi::xml_node& ref) {
+    auto it = ids_.find(ctx_.attr(ref, "id"));
+    return it == ids_.end() ? "" : it->second.tag;
+  }
+
+  // ---- sensor -------------------------------------------------------------
+
+  void parse_sensor(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (have_sensor_) ctx_.fail(node, "a second <sensor> (only one per scene)");
+    have_sensor_ = true;
+    if (type != "perspective") ctx_.fail(node, "unsupported sensor type '" + type + "' (perspective)");
+    Props p(ctx_, node, "sensor '" + type + "'");
+    Camera& cam = scene_.camera;
+    cam.where = ctx_.where(node);
+    if (std::optional<float> fov = p.get_float("fov")) {
+      if (!(*fov > 0.0f && *fov < 180.0f)) p.fail("fov", "fov must be in (0, 180) degrees");
+      cam.fov = *fov;
+    }
+    if (std::optional<std::string> axis = p.get_string("fov_axis")) {
+      const std::pair<const char*, Camera::FovAxis> axes[] = {{"x", Camera::FovAxis::X},
+                                                              {"y", Camera::FovAxis::Y},
+                                                              {"smaller", Camera::FovAxis::Smaller},
+                                                              {"larger", Camera::FovAxis::Larger},
+                                                              {"diagonal", Camera::FovAxis::Diagonal}};
+      bool found = false;
+      for (const auto& [n, a] : axes)
+        if (*axis == n) cam.fov_axis = a, found = true;
+      if (!found) p.fail("fov_axis", "unknown fov_axis '" + *axis + "' (x, y, smaller, larger, diagonal)");
+    }
+    if (std::optional<glm::mat4> m = p.get_transform("to_world")) {
+      if (!xml::is_invertible(*m)) p.fail("to_world", "singular to_world of the sensor");
+      cam.to_world = *m;
+    }
+    if (std::optional<float> v = p.get_float("near_clip")) {
+      if (!(*v > 0.0f)) p.fail("near_clip", "near_clip must be positive");
+      cam.near_clip = *v;
+    }
+    if (std::optional<float> v = p.get_float("far_clip")) cam.far_clip = *v;
+    if (!(cam.far_clip > cam.near_clip))
+      p.fail(p.has("far_clip") ? "far_clip" : "near_clip", "far_clip must be larger than near_clip");
+    p.finish();
+
+    bool have_film = false, have_sampler = false;
+    for (const pugi::xml_node& child : p.objects()) {
+      std::string tag = child.name();
+      if (tag == "film") {
+        if (have_film) ctx_.fail(child, "a second <film> in the sensor");
+        have_film = true;
+        parse_film(child);
+      } else if (tag == "sampler") {
+        if (have_sampler) ctx_.fail(child, "a second <sampler> in the sensor");
+        have_sampler = true;
+        parse_sampler(child);
+      } else if (tag == "medium" || tag == "ref") {
+        set_medium(cam.medium, child, "the sensor");
+      } else {
+        ctx_.fail(child, "<" + tag + "> is not allowed in " + p.what());
+      }
+    }
+    register_id(node, -1);
+  }
+
+  // The medium an endpoint (sensor, point or spot light) sits in.
+  void set_medium(int& medium, const pugi::xml_node& child, const std::string& owner) {
+    if (medium >= 0) ctx_.fail(child, "a second medium for " + owner);
+    medium = std::string(child.name()) == "ref" ? resolve_ref(child, "medium") : add_medium(child);
+  }
+
+  void parse_film(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type != "hdrfilm") ctx_.fail(node, "unsupported film type '" + type + "' (hdrfilm)");
+    Props p(ctx_, node, "film '" + type + "'");
+    Camera& cam = scene_.camera;
+    auto read_size = [&](const char* name, int& field) {
+      if (std::optional<int> v = p.get_int(name)) {
+        if (*v < 1 || *v > 16384) p.fail(name, std::string(name) + " must be in [1, 16384]");
+        field = *v;
+      }
+    };
+    read_size("width", cam.width);
+    read_size("height", cam.height);
+    // Output formats are the film writer's business; accepted so that the
+    // file stays valid for Mitsuba.
+    p.get_string("pixel_format");
+    p.get_string("component_format");
+    p.finish();
+    bool have_filter = false;
+    for (const pugi::xml_node& child : p.objects()) {
+      if (std::string(child.name()) != "rfilter")
+        ctx_.fail(child, "<" + std::string(child.name()) + "> is not allowed in " + p.what());
+      if (have_filter) ctx_.fail(child, "a second <rfilter> in the film");
+      have_filter = true;
+      parse_rfilter(child);
+    }
+    register_id(node, -1);
+  }
+
+  void parse_rfilter(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type != "box" && type != "gaussian") ctx_.fail(node, "unsupported rfilter type '" + type + "' (box, gaussian)");
+    Props p(ctx_, node, "rfilter '" + type + "'");
+    Camera& cam = scene_.camera;
+    if (type == "box") {
+      cam.filter = Camera::Filter::Box;
+    } else {
+      cam.filter = Camera::Filter::Gaussian;
+      if (std::optional<float> s = p.get_float("stddev")) {
+        if (!(*s > 0.0f)) p.fail("stddev", "stddev must be positive");
+        cam.filter_stddev = *s;
+      }
+    }
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+  }
+
+  void parse_sampler(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type != "independent") ctx_.fail(node, "unsupported sampler type '" + type + "' (independent)");
+    Props p(ctx_, node, "sampler '" + type + "'");
+    if (std::optional<int> n = p.get_int("sample_count")) {
+      if (*n < 1) p.fail("sample_count", "sample_count must be at least 1");
+      scene_.camera.spp = *n;
+    }
+    // The renderer seeds its counter-based RNG itself (METHOD.md section 7).
+    p.get_int("seed");
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+  }
+
+  void no_objects(const Props& p) {
+    if (!p.objects().empty())
+      ctx_.fail(p.objects().front(), "<" + std::string(p.objects().front().name()) + "> is not allowed in " + p.what());
+  }
+
+  // ---- shapes -------------------------------------------------------------
+
+  void parse_shape(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type == "ply") ctx_.fail(node, "shape type 'ply' is not supported; convert the mesh to OBJ");
+    if (type != "rectangle" && type != "cube" && type != "sphere" && type != "obj")
+      ctx_.fail(node, "unsupported shape type '" + type + "' (rectangle, cube, sphere, obj)");
+    Props p(ctx_, node, "shape '" + type + "'");
+    Shape shape;
+    shape.where = ctx_.where(node);
+    glm::mat4 to_world = p.get_transform("to_world").value_or(glm::mat4(1.0f));
+    if (!xml::is_invertible(to_world)) p.fail("to_world", "singular to_world of " + p.what());
+    shape.flip_normals = p.get_bool("flip_normals").value_or(false);
+
+    if (type == "sphere") {
+      build_sphere(shape, p, to_world);
+    } else if (type == "rectangle") {
+      build_rectangle(shape, p, to_world);
+    } else {
+      ObjMesh mesh;
+      if (type == "cube") {
+        mesh = cube_mesh();
+      } else {
+        std::optional<std::string> filename = p.get_string("filename");
+        if (!filename) ctx_.fail(node, p.what() + " needs a 'filename' property");
+        bool vertex_normals = !p.get_bool("face_normals").value_or(false);
+        std::string path = ctx_.resolve(*filename);
+        std::string text = xml::read_text_file(path, shape.where, "OBJ file");
+        mesh = parse_obj(text, path, vertex_normals, shape.where);
+      }
+      to_world_mesh(shape, std::move(mesh), to_world);
+    }
+    p.finish();
+
+    std::optional<Light> light;
+    for (const pugi::xml_node& child : p.objects()) {
+      std::string tag = child.name();
+      std::string role = ctx_.opt_attr(child, "name").value_or("");
+      bool medium_role = role == "interior" || role == "exterior";
+      if (tag == "bsdf" || (tag == "ref" && !medium_role && ref_tag(child) != "medium")) {
+        if (shape.material >= 0) ctx_.fail(child, "a second bsdf for " + p.what());
+        shape.material = tag == "ref" ? resolve_ref(child, "bsdf") : add_bsdf(child);
+      } else if (tag == "medium" || tag == "ref") {
+        if (!medium_role) ctx_.fail(child, "a medium in a shape needs name=\"interior\" or name=\"exterior\"");
+        int& slot = role == "interior" ? shape.interior : shape.exterior;
+        if (slot >= 0) ctx_.fail(child, "a second " + role + " medium for " + p.what());
+        slot = tag == "ref" ? resolve_ref(child, "medium") : add_medium(child);
+      } else if (tag == "emitter") {
+        if (light) ctx_.fail(child, "a second emitter for " + p.what());
+        light = read_area_emitter(child);
+      } else {
+        ctx_.fail(child, "<" + tag + "> is not allowed in " + p.what());
+      }
+    }
+    if (shape.material < 0) {
+      Material fallback;  // Mitsuba gives a shape without bsdf a diffuse 0.5 one
+      fallback.where = shape.where;
+      shape.material = static_cast<int>(scene_.materials.size());
+      scene_.materials.push_back(fallback);
+    }
+    int index = static_cast<int>(scene_.shapes.size());
+    if (light) {
+      light->shape = index;
+      light->medium = shape.exterior;
+      shape.light = static_cast<int>(scene_.lights.size());
+      scene_.lights.push_back(*light);
+    }
+    scene_.shapes.push_back(std::move(shape));
+    register_id(node, index);
+  }
+
+  // Mitsuba's sphere: `center` and `radius`, then to_world, which may only
+  // rotate, translate and scale uniformly since the shape stays a sphere.
+  void build_sphere(Shape& shape, Props& p, const glm::mat4& to_world) {
+    shape.kind = Shape::Kind::Sphere;
+    glm::vec3 center = p.get_point("center").value_or(glm::vec3(0.0f));
+    float radius = p.get_float("radius").value_or(1.0f);
+    if (!(radius > 0.0f)) p.fail("radius", "sphere radius must be positive");
+    glm::mat3 l(to_world);
+    glm::mat3 gram = glm::transpose(l) * l;
+    float s2 = (gram[0][0] + gram[1][1] + gram[2][2]) / 3.0f;
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r)
+        if (std::abs(gram[c][r] - (c == r ? s2 : 0.0f)) > 1e-4f * s2)
+          p.fail("to_world", "to_world of a sphere must scale uniformly (no non-uniform scale or shear)");
+    shape.center = glm::vec3(to_world * glm::vec4(center, 1.0f));
+    shape.radius = radius * std::sqrt(s2);
+  }
+
+  // Mitsuba's rectangle is analytic with normal to_world(+z) transformed as a
+  // normal, whatever the handedness of to_world; meshes (cube, obj) instead
+  // keep their winding. So a mirroring to_world flips the rectangle's winding.
+  void build_rectangle(Shape& shape, Props& p, const glm::mat4& to_world) {
+    glm::mat3 l(to_world);
+    glm::vec3 du = glm::normalize(l[0]), dv = glm::normalize(l[1]);
+    if (std::abs(glm::dot(du, dv)) > 1e-4f)
+      p.fail("to_world", "to_world of a rectangle contains shear (Mitsuba refuses it too)");
+    ObjMesh mesh;
+    mesh.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    mesh.triangles = {{0, 1, 2}, {2, 3, 0}};
+    if (glm::determinant(l) < 0.0f)
+      for (glm::uvec3& t : mesh.triangles) std::swap(t.y, t.z);
+    to_world_mesh(shape, std::move(mesh), to_world);
+  }
+
+  // [-1,1]^3 with outward winding (cross(p1 - p0, p2 - p0) points out), flat.
+  static ObjMesh cube_mesh() {
+    ObjMesh mesh;
+    for (int axis = 0; axis < 3; ++axis) {
+      for (float side : {-1.0f, 1.0f}) {
+        glm::vec3 n(0.0f), u(0.0f);
+        n[axis] = side;
+        u[(axis + 1) % 3] = 1.0f;
+        glm::vec3 v = glm::cross(n, u);
+        auto base = static_cast<unsigned>(mesh.positions.size());
+        mesh.positions.insert(mesh.positions.end(), {n - u - v, n + u - v, n + u + v, n - u + v});
+        mesh.triangles.push_back({base, base + 1, base + 2});
+        mesh.triangles.push_back({base, base + 2, base + 3});
+      }
+    }
+    return mesh;
+  }
+
+  // Positions by to_world, normals by its inverse transpose; then zero-area
+  // triangles are dropped (they have no normal to shade or to orient media).
+  void to_world_mesh(Shape& shape, ObjMesh mesh, const glm::mat4& to_world) {
+    glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(to_world)));
+    for (glm::vec3& pos : mesh.positions) {
+      pos = glm::vec3(to_world * glm::vec4(pos, 1.0f));
+      if (!std::isfinite(pos.x) || !std::isfinite(pos.y) || !std::isfinite(pos.z))
+        throw InputError(shape.where, "a vertex position is not finite in world space");
+    }
+    for (glm::vec3& n : mesh.normals) {
+      glm::vec3 w = normal_matrix * n;
+      float len = glm::length(w);
+      if (!(len > 0.0f) || !std::isfinite(len)) throw InputError(shape.where, "a vertex normal has zero length");
+      n = w / len;
+    }
+    size_t dropped = 0;
+    for (const glm::uvec3& t : mesh.triangles) {
+      glm::vec3 a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
+      float twice_area = glm::length(glm::cross(b - a, c - a));
+      float longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
+      // Zero area up to float rounding: height over the longest edge ~ 0.
+      if (!(twice_area > 1e-7f * longest * longest)) {
+        ++dropped;
+        continue;
+      }
+      shape.triangles.push_back(t);
+    }
+    if (shape.triangles.empty()) throw InputError(shape.where, "mesh has no triangles of non-zero area");
+    if (dropped > 0)
+      std::cerr << shape.where << ": warning: dropped " << dropped << " degenerate (zero-area) triangle"
+                << (dropped == 1 ? "" : "s") << " of the shape\n";
+    shape.positions = std::move(mesh.positions);
+    shape.normals = std::move(mesh.normals);
+  }
+
+  // ---- bsdfs --------------------------------------------------------------
+
+  int add_bsdf(const pugi::xml_node& node) {
+    Material m = read_bsdf(node);
+    int index = static_cast<int>(scene_.materials.size());
+    scene_.materials.push_back(m);
+    register_id(node, index);
+    return index;
+  }
+
+  Material read_bsdf(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type != "diffuse" && type != "conductor" && type != "dielectric" && type != "null" && type != "twosided")
+      ctx_.fail(node, "unsupported bsdf type '" + type + "' (diffuse, conductor, dielectric, twosided, null)");
+    Props p(ctx_, node, "bsdf '" + type + "'");
+    Material m;
+    m.where = ctx_.where(node);
+    if (type == "diffuse") {
+      m.type = Material::Type::Diffuse;
+      if (std::optional<glm::vec3> r = p.get_color("reflectance")) {
+        if (!in_unit_range(*r)) p.fail("reflectance", "reflectance must be in [0, 1]");
+        m.reflectance = *r;
+      }
+    } else if (type == "conductor") {
+      std::string material = p.get_string("material").value_or("none");
+      if (material != "none")
+        p.fail("material", "conductor material '" + material + "' is not supported (only \"none\", a perfect mirror)");
+      m.type = Material::Type::Mirror;
+      m.reflectance = glm::vec3(1.0f);  // material "none": eta 0, k 1, reflects everything
+    } else if (type == "dielectric") {
+      m.type = Material::Type::Dielectric;
+      m.int_ior = ior(p, "int_ior", m.int_ior);
+      m.ext_ior = ior(p, "ext_ior", m.ext_ior);
+    } else if (type == "null") {
+      m.type = Material::Type::Null;
+    } else {
+      p.finish();
+      return read_twosided(node, p);
+    }
+    p.finish();
+    no_objects(p);
+    return m;
+  }
+
+  // A float, or one of Mitsuba's named materials as a string.
+  float ior(Props& p, const char* name, float fallback) {
+    if (!p.has(name)) return fallback;
+    float value = 0.0f;
+    if (p.is_tag(name, "string")) {
+      std::string named = *p.get_string(name);
+      bool found = false;
+      for (const auto& [n, v] : kNamedIor)
+        if (named == n) value = v, found = true;
+      if (!found) p.fail(name, "unknown " + std::string(name) + " material '" + named + "'");
+    } else {
+      value = *p.get_float(name);
+    }
+    if (!(value > 0.0f)) p.fail(name, std::string(name) + " must be positive");
+    return value;
+  }
+
+  // twosided wraps exactly one bsdf; Mitsuba refuses transmissive ones in it.
+  Material read_twosided(const pugi::xml_node& node, const Props& p) {
+    if (p.objects().size() != 1) ctx_.fail(node, "bsdf 'twosided' needs exactly one nested bsdf");
+    const pugi::xml_node& child = p.objects().front();
+    std::string tag = child.name();
+    Material inner;
+    if (tag == "ref") {
+      inner = scene_.materials[resolve_ref(child, "bsdf")];
+    } else if (tag == "bsdf") {
+      inner = child.attribute("id") ? scene_.materials[add_bsdf(child)] : read_bsdf(child);
+    } else {
+      ctx_.fail(child, "<" + tag + "> is not allowed in bsdf 'twosided'");
+    }
+    if (inner.type == Material::Type::Dielectric || inner.type == Material::Type::Null)
+      ctx_.fail(child, "bsdf 'twosided' cannot wrap a transmissive bsdf (dielectric, null)");
+    inner.twosided = true;
+    inner.where = ctx_.where(node);
+    return inner;
+  }
+
+  // ---- emitters -----------------------------------------------------------
+
+  Light read_area_emitter(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type != "area") ctx_.fail(node, "emitter '" + type + "' cannot be nested in a shape (only 'area')");
+    Props p(ctx_, node, "emitter 'area'");
+    Light light;
+    light.type = Light::Type::Area;
+    light.where = ctx_.where(node);
+    if (std::optional<glm::vec3> r = p.get_color("radiance")) {
+      if (!non_negative(*r)) p.fail("radiance", "radiance must not be negative");
+      light.radiance = *r;
+    }
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+    return light;
+  }
+
+  void parse_emitter(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type == "area") ctx_.fail(node, "an 'area' emitter must be nested in a <shape>");
+    if (type != "point" && type != "spot")
+      ctx_.fail(node, "unsupported emitter type '" + type + "' (area in a shape, point, spot)");
+    Props p(ctx_, node, "emitter '" + type + "'");
+    Light light;
+    light.where = ctx_.where(node);
+    if (std::optional<glm::vec3> i = p.get_color("intensity")) {
+      if (!non_negative(*i)) p.fail("intensity", "intensity must not be negative");
+      light.intensity = *i;
+    }
+    std::optional<glm::mat4> to_world = p.get_transform("to_world");
+    if (type == "point") {
+      light.type = Light::Type::Point;
+      if (std::optional<glm::vec3> pos = p.get_point("position")) {
+        if (to_world) p.fail("position", "give either 'position' or 'to_world' of a point emitter, not both");
+        to_world = glm::translate(glm::mat4(1.0f), *pos);
+      }
+    } else {
+      light.type = Light::Type::Spot;
+      if (to_world && !xml::is_invertible(*to_world)) p.fail("to_world", "singular to_world of " + p.what());
+      if (std::optional<float> c = p.get_float("cutoff_angle")) {
+        if (!(*c > 0.0f && *c < 180.0f)) p.fail("cutoff_angle", "cutoff_angle must be in (0, 180) degrees");
+        light.cutoff_angle = *c;
+      }
+      light.beam_width = light.cutoff_angle * 0.75f;  // Mitsuba's default
+      if (std::optional<float> b = p.get_float("beam_width")) {
+        if (!(*b >= 0.0f && *b <= light.cutoff_angle))
+          p.fail("beam_width", "beam_width must be in [0, cutoff_angle] degrees");
+        light.beam_width = *b;
+      }
+    }
+    p.finish();
+    light.to_world = to_world.value_or(glm::mat4(1.0f));
+    light.position = glm::vec3(light.to_world[3]);
+    for (const pugi::xml_node& child : p.objects()) {
+      std::string tag = child.name();
+      if (tag != "medium" && tag != "ref") ctx_.fail(child, "<" + tag + "> is not allowed in " + p.what());
+      set_medium(light.medium, child, p.what());
+    }
+    scene_.lights.push_back(light);
+    register_id(node, -1);
+  }
+
+  // ---- media --------------------------------------------------------------
+
+  int add_medium(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (type != "homogeneous") ctx_.fail(node, "unsupported medium type '" + type + "' (homogeneous)");
+    Props p(ctx_, node, "medium '" + type + "'");
+    Medium m;
+    m.where = ctx_.where(node);
+    if (std::optional<glm::vec3> s = p.get_color("sigma_t")) {
+      if (!non_negative(*s)) p.fail("sigma_t", "sigma_t must not be negative");
+      m.sigma_t = *s;
+    }
+    if (std::optional<glm::vec3> a = p.get_color("albedo")) {
+      if (!in_unit_range(*a)) p.fail("albedo", "albedo must be in [0, 1]");
+      m.albedo = *a;
+    }
+    if (std::optional<float> s = p.get_float("scale")) {
+      if (!(*s >= 0.0f)) p.fail("scale", "scale of a medium must not be negative");
+      m.sigma_t *= *s;
+    }
+    p.finish();
+    bool have_phase = false;
+    for (const pugi::xml_node& child : p.objects()) {
+      if (std::string(child.name()) != "phase")
+        ctx_.fail(child, "<" + std::string(child.name()) + "> is not allowed in " + p.what() + " (only <phase>)");
+      if (have_phase) ctx_.fail(child, "a second <phase> in the medium");
+      have_phase = true;
+      read_phase(child, m);
+    }
+    int index = static_cast<int>(scene_.media.size());
+    scene_.media.push_back(m);
+    register_id(node, index);
+    return index;
+  }
+
+  void read_phase(const pugi::xml_node& node, Medium& m) {
+    std::string type = object_type(node);
+    if (type != "isotropic" && type != "hg") ctx_.fail(node, "unsupported phase type '" + type + "' (isotropic, hg)");
+    Props p(ctx_, node, "phase '" + type + "'");
+    if (type == "isotropic") {
+      m.hg = false;
+    } else {
+      m.hg = true;
+      m.g = 0.8f;  // Mitsuba's default
+      if (std::optional<float> g = p.get_float("g")) {
+        if (!(*g > -1.0f && *g < 1.0f)) p.fail("g", "g of the hg phase function must be in (-1, 1)");
+        m.g = *g;
+      }
+    }
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+  }
+
+  // ---- integrator ---------------------------------------------------------
+
+  // Only type="spm" is ours; any other integrator is left entirely to the
+  // renderer it is written for (e.g. Mitsuba's volpath for a reference image).
+  void parse_integrator(const pugi::xml_node& node) {
+    std::string type = object_type(node);
+    if (have_integrator_) ctx_.fail(node, "a second <integrator> (only one per scene)");
+    have_integrator_ = true;
+    if (type != "spm") return;
+    Props p(ctx_, node, "integrator 'spm'");
+    IntegratorSettings& s = scene_.integrator;
+    s.present = true;
+    s.where = ctx_.where(node);
+    auto int_at_least = [&](const char* name, int& field, int lowest) {
+      if (std::optional<int> v = p.get_int(name)) {
+        if (*v < lowest) p.fail(name, std::string(name) + " must be at least " + std::to_string(lowest));
+        field = *v;
+      }
+    };
+    int_at_least("streams", s.streams, 1);
+    int_at_least("associated", s.associated, 1);
+    int_at_least("max_bounces", s.max_bounces, 0);
+    int_at_least("passes", s.passes, 1);
+    int_at_least("max_depth", s.max_depth, 0);
+    auto checked_float = [&](const char* name, float& field, bool strictly_positive) {
+      if (std::optional<float> v = p.get_float(name)) {
+        if (strictly_positive ? !(*v > 0.0f) : !(*v >= 0.0f))
+          p.fail(name, std::string(name) + (strictly_positive ? " must be positive" : " must not be negative"));
+        field = *v;
+      }
+    };
+    checked_float("radius", s.radius, true);
+    checked_float("width", s.width, true);
+    checked_float("march_step", s.march_step, false);
+    checked_float("time", s.time, false);
+    if (std::optional<std::string> e = p.get_string("estimator")) {
+      if (*e != "bre" && *e != "paper") p.fail("estimator", "unknown estimator '" + *e + "' (bre, paper)");
+      s.estimator = *e;
+    }
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+  }
+
+  xml::Context ctx_;
+  Scene scene_;
+  std::map<std::string, Named> ids_;
+  bool have_sensor_ = false;
+  bool have_integrator_ = false;
+};
+
+}  // namespace
+
+Scene load_scene_string(const std::string& xml, const std::string& name,
+                        const std::map<std::string, std::string>& overrides) {
+  return Loader(overrides).load(xml, name);
+}
+
+Scene load_scene(const std::string& path, const std::map<std::string, std::string>& overrides) {
+  return load_scene_string(xml::read_text_file(path, path, "scene file"), path, overrides);
+}
+
+}  // namespace spm
