@@ -114,7 +114,8 @@ int main(int argc, char** argv) {
   render->add_option("--spp", r.settings.spp, "Camera samples per pixel per pass")->check(CLI::PositiveNumber);
   render->add_option("--passes", r.settings.passes, "Number of passes")->check(CLI::PositiveNumber);
   render->add_option("--seed", r.settings.seed, "Random seed");
-  render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value");
+  render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value (repeatable)")
+      ->allow_extra_args(false);
   render->add_option("--kernel-dir", r.kernel_dir,
                      "Load kernels from this directory instead of the embedded sources")
       ->check(CLI::ExistingDirectory);
