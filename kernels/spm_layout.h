@@ -16,7 +16,9 @@
   S(SpmMedium, 32)            \
   S(SpmLight, 112)            \
   S(SpmLightPrim, 8)          \
-  S(SpmCamera, 96)
+  S(SpmCamera, 96)            \
+  S(SpmVolumeRecord, 48)      \
+  S(SpmSurfaceRecord, 64)
 
 /* F(struct, field) */
 #define SPM_LAYOUT_FIELDS(F)                                                                    \
@@ -36,6 +38,11 @@
   F(SpmCamera, origin) F(SpmCamera, tan_half_x) F(SpmCamera, axis_x) F(SpmCamera, tan_half_y)   \
   F(SpmCamera, axis_y) F(SpmCamera, near_clip) F(SpmCamera, axis_z) F(SpmCamera, far_clip)      \
   F(SpmCamera, width) F(SpmCamera, height) F(SpmCamera, medium) F(SpmCamera, filter)            \
-  F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)
+  F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)                                       \
+  F(SpmVolumeRecord, position) F(SpmVolumeRecord, stream) F(SpmVolumeRecord, direction)         \
+  F(SpmVolumeRecord, event) F(SpmVolumeRecord, flux)                                            \
+  F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
+  F(SpmSurfaceRecord, event_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
+  F(SpmSurfaceRecord, normal)
 
 #endif

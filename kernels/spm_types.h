@@ -147,4 +147,32 @@ typedef struct SpmCamera {
   spm_uint pad[2];
 } SpmCamera;
 
+/* Volumetric stream map record (METHOD.md 3, interact): one per medium event
+ * of a stream, stored before absorption. (stream, event) orders the records
+ * deterministically whatever order the device appended them in. */
+typedef struct SpmVolumeRecord {
+  spm_float position[3];
+  spm_uint stream; /* stream id within the pass */
+  spm_float direction[3]; /* the leader's direction of travel at the event */
+  spm_uint event;  /* the stream's event index */
+  spm_float flux[3]; /* n * phi: the whole stream's flux (RGB) */
+  spm_uint pad;
+} SpmVolumeRecord;
+
+/* Record flags. */
+#define SPM_RECORD_HAD_EVENT 1u /* the stream scattered or bounced before (METHOD.md 5) */
+
+/* Surface photon map record: one per alive associated photon of a stream at a
+ * diffuse event. */
+typedef struct SpmSurfaceRecord {
+  spm_float position[3];
+  spm_uint stream;
+  spm_float direction[3]; /* direction of travel of the arriving photon */
+  spm_uint event_photon;  /* event << 16 | photon index */
+  spm_float flux[3];      /* phi (RGB) */
+  spm_uint flags;
+  spm_float normal[3];    /* geometric normal on the side the photon arrived from */
+  spm_uint pad;
+} SpmSurfaceRecord;
+
 #endif

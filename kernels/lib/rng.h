@@ -18,6 +18,7 @@
 #define SPM_RNG_ABSORB 6u
 #define SPM_RNG_RESPAWN 7u
 #define SPM_RNG_EMIT 8u
+#define SPM_RNG_DEPOSIT 9u
 
 typedef struct SpmRng {
   uint seed;

@@ -34,6 +34,11 @@ inline float2 sample_disk(float u1, float u2) {
   return (float2)(r * cos(phi), r * sin(phi));
 }
 
+/* Uniform point in the unit ball (radial CDF r^3). */
+inline float3 sample_ball(float u1, float u2, float u3) {
+  return cbrt(u1) * sample_uniform_sphere(u2, u3);
+}
+
 /* Uniform barycentrics (b1, b2) on a triangle. */
 inline float2 sample_triangle(float u1, float u2) {
   const float s = sqrt(u1);

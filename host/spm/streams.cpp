@@ -1,0 +1,171 @@
+#include "spm/streams.h"
+
+#include <algorithm>
+#include <tuple>
+
+#include "util/errors.h"
+
+namespace spm {
+
+namespace {
+
+// Device memory of one stream slot: its state, two queue entries, its
+// associated photons' positions, and room for two iterations' worth of
+// surface records and eight volume records, so that flushes stay rare.
+size_t bytes_per_stream(uint32_t associated) {
+  return StreamState::bytes_per_slot() + 2 * sizeof(cl_uint) + associated * sizeof(cl_float4) +
+         2 * associated * sizeof(SpmSurfaceRecord) + 8 * sizeof(SpmVolumeRecord);
+}
+
+uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
+  const size_t budget = s.memory_budget ? s.memory_budget : std::min<size_t>(info.global_memory / 2, size_t(1) << 30);
+  size_t n = budget / bytes_per_stream(s.associated);
+  // The largest single buffer, the surface records, must fit one allocation.
+  n = std::min<size_t>(n, info.max_alloc / (2 * s.associated * sizeof(SpmSurfaceRecord)));
+  // Per-photon kernels index (stream, photon) with 32-bit global ids.
+  n = std::min<size_t>(n, (size_t(1) << 31) / s.associated);
+  n = std::min<size_t>(n, s.streams);
+  if (n == 0) {
+    throw RuntimeError("one stream of " + std::to_string(s.associated) +
+                       " associated photons does not fit the device memory budget of " + std::to_string(budget) +
+                       " bytes");
+  }
+  return static_cast<uint32_t>(n);
+}
+
+}  // namespace
+
+StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSettings& settings)
+    : device_(device), scene_(scene), settings_(settings) {
+  if (settings_.streams == 0 || settings_.associated == 0) throw InputError("", "streams and associated must be >= 1");
+  if (settings_.associated > 65535) throw InputError("", "associated photons per stream must be at most 65535");
+  capacity_ = batch_size(device.info(), settings_);
+  volume_capacity_ = 8 * capacity_;
+  surface_capacity_ = 2 * capacity_ * settings_.associated;
+  auto& ctx = device.context();
+  state_ = StreamState(ctx, capacity_);
+  queue_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * capacity_);
+  queue_next_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * capacity_);
+  counters_buffer_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * SPM_COUNTERS);
+  photons_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_float4) * capacity_ * settings_.associated);
+  volume_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(SpmVolumeRecord) * volume_capacity_);
+  surface_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(SpmSurfaceRecord) * surface_capacity_);
+  emit_ = device.kernel("spm_emit", "spm_emit");
+  march_ = device.kernel("spm_march", "spm_march");
+  interact_ = device.kernel("spm_interact", "spm_interact");
+  deposit_ = device.kernel("spm_deposit", "spm_deposit");
+  absorb_ = device.kernel("spm_absorb", "spm_absorb");
+  respawn_ = device.kernel("spm_respawn", "spm_respawn");
+  compact_ = device.kernel("spm_compact", "spm_compact");
+  counters_.fill(0);
+  device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+}
+
+void StreamTracer::launch_photons(const char* label, cl::Kernel& kernel) {
+  device_.launch(label, kernel, size_t(live_) * settings_.associated);
+}
+
+void StreamTracer::emit(uint32_t first, uint32_t count) {
+  if (count == 0 || count > capacity_) throw RuntimeError("emit: batch of " + std::to_string(count) + " streams");
+  const StreamSettings& s = settings_;
+  live_ = count;
+  set_args(emit_, scene_, queue_, cl_uint(count), state_, cl_uint(first), cl_uint(s.streams), cl_uint(s.associated),
+           cl_uint(s.seed), cl_uint(s.pass));
+  device_.launch("emit", emit_, count);
+  set_args(respawn_, queue_, cl_uint(count), state_, photons_, cl_uint(s.associated), s.width, cl_uint(s.seed),
+           cl_uint(s.pass));
+  launch_photons("respawn", respawn_);
+}
+
+uint32_t StreamTracer::step() {
+  const StreamSettings& s = settings_;
+  const cl_uint n = live_;
+  if (n == 0) return 0;
+  live_log_.push_back(n);
+  // The loop of METHOD.md 3 over the live queue. Interact appends at most one
+  // volume record and n <= N_a surface records per stream; flush() made room.
+  set_args(march_, scene_, queue_, n, state_, s.march_step, cl_uint(s.seed), cl_uint(s.pass));
+  device_.launch("march", march_, n);
+  set_args(interact_, scene_, queue_, n, state_, volume_, volume_capacity_, surface_capacity_, counters_buffer_,
+           cl_uint(s.max_bounces), cl_uint(s.seed), cl_uint(s.pass));
+  device_.launch("interact", interact_, n);
+  set_args(deposit_, queue_, n, state_, cl_uint(s.associated), s.width, surface_, surface_capacity_, cl_uint(s.seed),
+           cl_uint(s.pass));
+  launch_photons("deposit", deposit_);
+  set_args(absorb_, queue_, n, state_, cl_uint(s.associated), cl_uint(s.seed), cl_uint(s.pass));
+  launch_photons("absorb", absorb_);
+  set_args(respawn_, queue_, n, state_, photons_, cl_uint(s.associated), s.width, cl_uint(s.seed), cl_uint(s.pass));
+  launch_photons("respawn", respawn_);
+  const cl_uint zero = 0;
+  device_.queue().enqueueWriteBuffer(counters_buffer_, CL_FALSE, sizeof(cl_uint) * SPM_COUNT_LIVE, sizeof(cl_uint),
+                                     &zero);
+  set_args(compact_, queue_, n, state_, queue_next_, counters_buffer_);
+  device_.launch("compact", compact_, n);
+  std::swap(queue_, queue_next_);
+  read_counters();
+  if (counters_[SPM_COUNT_ERRORS] != 0) {
+    throw RuntimeError("stream map overflow (error bits " + std::to_string(counters_[SPM_COUNT_ERRORS]) +
+                       "): the host's capacity check failed");
+  }
+  live_ = counters_[SPM_COUNT_LIVE];
+  return live_;
+}
+
+void StreamTracer::make_room(PhotonMaps& maps) {
+  const size_t volume = size_t(counters_[SPM_COUNT_VOLUME]) + live_;
+  const size_t surface = size_t(counters_[SPM_COUNT_SURFACE]) + size_t(live_) * settings_.associated;
+  if (volume > volume_capacity_ || surface > surface_capacity_) {
+    flush(maps);
+    ++maps.stats.flushes;
+  }
+}
+
+void StreamTracer::read_counters() {
+  device_.queue().enqueueReadBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+}
+
+std::vector<cl_float4> StreamTracer::photon_positions() {
+  return device_.download<cl_float4>(photons_, size_t(capacity_) * settings_.associated);
+}
+
+void StreamTracer::flush(PhotonMaps& maps) {
+  read_counters();
+  const auto volume = device_.download<SpmVolumeRecord>(volume_, counters_[SPM_COUNT_VOLUME]);
+  const auto surface = device_.download<SpmSurfaceRecord>(surface_, counters_[SPM_COUNT_SURFACE]);
+  maps.volume.insert(maps.volume.end(), volume.begin(), volume.end());
+  maps.surface.insert(maps.surface.end(), surface.begin(), surface.end());
+  for (int k = 0; k < SPM_COUNTERS; ++k) {
+    if (k != SPM_COUNT_LIVE) maps.stats.counters[k] += counters_[k];
+  }
+  maps.stats.live.insert(maps.stats.live.end(), live_log_.begin(), live_log_.end());
+  live_log_.clear();
+  counters_.fill(0);
+  counters_[SPM_COUNT_LIVE] = live_;
+  device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+}
+
+PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings) {
+  StreamTracer tracer(device, scene, settings);
+  PhotonMaps maps;
+  maps.stats.batch_size = tracer.batch_capacity();
+  for (uint32_t first = 0; first < settings.streams; first += tracer.batch_capacity()) {
+    tracer.emit(first, std::min(tracer.batch_capacity(), settings.streams - first));
+    ++maps.stats.batches;
+    while (tracer.live() > 0) {
+      tracer.make_room(maps);
+      tracer.step();
+    }
+    tracer.flush(maps);
+  }
+  // Appends raced on the device; (stream, event[, photon]) is a total order
+  // independent of it, so the maps and every sum over them are deterministic.
+  std::sort(maps.volume.begin(), maps.volume.end(), [](const SpmVolumeRecord& a, const SpmVolumeRecord& b) {
+    return std::tie(a.stream, a.event) < std::tie(b.stream, b.event);
+  });
+  std::sort(maps.surface.begin(), maps.surface.end(), [](const SpmSurfaceRecord& a, const SpmSurfaceRecord& b) {
+    return std::tie(a.stream, a.event_photon) < std::tie(b.stream, b.event_photon);
+  });
+  return maps;
+}
+
+}  // namespace spm

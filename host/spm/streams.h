@@ -1,0 +1,94 @@
+// Stream propagation (METHOD.md 2-4): batches of streams run as wavefront
+// kernels, emit then march, interact, deposit, absorb, respawn and compact,
+// until no stream lives; the records land in the two photon maps.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "device/device.h"
+#include "scene/gpu_scene.h"
+#include "spm/stream_state.h"
+#include "spm_streams.h"
+#include "spm_types.h"
+
+namespace spm {
+
+struct StreamSettings {
+  uint32_t streams = 10000;    // N_s in the pass
+  uint32_t associated = 100;   // N_a per stream
+  float width = 2.5f;          // w: respawn sphere / deposit disk radius
+  uint32_t max_bounces = 4;    // diffuse bounces before a stream ends
+  float march_step = 0.0f;     // 0: exact free-flight sampling
+  uint32_t seed = 0;
+  uint32_t pass = 0;
+  size_t memory_budget = 0;    // bytes of device memory for a batch; 0: from the device
+};
+
+struct StreamStats {
+  uint32_t batches = 0;
+  uint32_t batch_size = 0;
+  uint32_t flushes = 0;             // map downloads forced by full buffers
+  std::vector<uint32_t> live;       // live streams at the start of each iteration
+  std::array<uint64_t, SPM_COUNTERS> counters{};  // SPM_COUNT_* summed over batches
+};
+
+struct PhotonMaps {
+  std::vector<SpmVolumeRecord> volume;    // ordered by (stream, event)
+  std::vector<SpmSurfaceRecord> surface;  // ordered by (stream, event, photon)
+  StreamStats stats;
+};
+
+// Step-by-step propagation of one batch at a time; `trace_streams` drives it,
+// tests look inside.
+class StreamTracer {
+ public:
+  StreamTracer(Device& device, const GpuScene& scene, const StreamSettings& settings);
+
+  uint32_t batch_capacity() const { return capacity_; }
+
+  // Emits streams [first, first + count) of the pass (count <= capacity) and
+  // places their associated photons in the disk around the origin.
+  void emit(uint32_t first, uint32_t count);
+
+  // Before step(): downloads the maps into `maps` when the coming iteration's
+  // worst case (one volume record and N_a surface records per live stream)
+  // might not fit, so that nothing is ever dropped.
+  void make_room(PhotonMaps& maps);
+
+  // One wavefront iteration over the live streams; returns how many live on.
+  uint32_t step();
+
+  uint32_t live() const { return live_; }
+
+  // Moves the records written so far, and the counters, to `maps` (records
+  // in device order; trace_streams sorts them).
+  void flush(PhotonMaps& maps);
+
+  // For tests: the batch's buffers as they are now.
+  std::vector<cl_float4> photon_positions();
+  const StreamState& state() const { return state_; }
+  const std::array<cl_uint, SPM_COUNTERS>& counters() const { return counters_; }
+
+ private:
+  void read_counters();
+  void launch_photons(const char* label, cl::Kernel& kernel);
+
+  Device& device_;
+  const GpuScene& scene_;
+  StreamSettings settings_;
+  uint32_t capacity_ = 0;
+  uint32_t live_ = 0;
+  cl_uint volume_capacity_ = 0, surface_capacity_ = 0;
+  StreamState state_;
+  cl::Buffer queue_, queue_next_, counters_buffer_, photons_, volume_, surface_;
+  std::array<cl_uint, SPM_COUNTERS> counters_{};
+  std::vector<uint32_t> live_log_;
+  cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_, compact_;
+};
+
+// All N_s streams of one pass, in batches sized to the device's memory.
+PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings);
+
+}  // namespace spm

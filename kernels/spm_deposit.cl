@@ -1,0 +1,39 @@
+/* spm_deposit: a diffuse event's surface photon records (METHOD.md 3).
+ * From: streams with SPM_ACT_DEPOSIT. To: surface map slots
+ * [record_base, record_base + n) reserved by interact.
+ * One work-item per associated photon: each alive photon is re-placed
+ * uniformly in the disk of radius w around the hit, in the tangent plane, and
+ * recorded with flux phi. A collapsed stream (n = 1) deposits its one photon
+ * exactly at the hit, so caustics stay sharp (METHOD.md 4). */
+#include "spm_types.h"
+#include "lib/sampling.h"
+#include "lib/stream.h"
+
+__kernel void spm_deposit(const __global uint* queue, uint count SPM_STREAM_PARAMS,
+                          uint associated, float width, __global SpmSurfaceRecord* surface, uint surface_capacity,
+                          uint seed, uint pass) {
+  uint q, j;
+  if (!photon_item(get_global_id(0), count, associated, &q, &j)) return;
+  const uint s = queue[q];
+  const uint n = st_alive[s];
+  if (!(st_state[s] & SPM_ACT_DEPOSIT) || j >= n) return;
+  const uint slot = st_record_base[s] + j;
+  if (slot >= surface_capacity) return; /* interact raised SPM_ERROR_SURFACE_OVERFLOW */
+  const float3 x = st_event_pos[s].xyz;
+  const float3 normal = st_event_normal[s].xyz;
+  float3 p = x;
+  if (n > 1) {
+    const float4 u = rng4(STREAM_EVENT_RNG(s, seed, pass), SPM_RNG_DEPOSIT, j);
+    p = in_tangent_disk(x, normal, sample_disk(u.x, u.y), width);
+  }
+  const float4 dir = st_event_dir[s];
+  __global SpmSurfaceRecord* r = &surface[slot];
+  vstore3(p, 0, r->position);
+  vstore3(dir.xyz, 0, r->direction);
+  vstore3(st_phi[s].xyz, 0, r->flux);
+  vstore3(normal, 0, r->normal);
+  r->stream = st_id[s];
+  r->event_photon = ((st_events[s] - 1u) << 16) | j;
+  r->flags = dir.w > 0.0f ? SPM_RECORD_HAD_EVENT : 0u;
+  r->pad = 0;
+}

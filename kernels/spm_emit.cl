@@ -1,0 +1,59 @@
+/* spm_emit: starts a batch of streams (METHOD.md 2).
+ * From: nothing. To: queue (every stream live), state SPM_ACT_DISK so that
+ * respawn places the associated photons in the disk of radius w around the
+ * origin, in the light's plane.
+ *
+ * A light is picked with probability proportional to its power; the leader
+ * starts uniformly on it, cosine-weighted about the normal (area), uniform
+ * (point) or uniform in the cone (spot). Every associated photon carries
+ * phi = Phi_light / (p_light N_s N_a); a spot's photons also carry its falloff. */
+#include "spm_types.h"
+#include "lib/lights.h"
+#include "lib/stream.h"
+
+__kernel void spm_emit(SPM_SCENE_PARAMS, __global uint* queue, uint count SPM_STREAM_PARAMS, uint first_stream,
+                       uint pass_streams, uint associated, uint seed, uint pass) {
+  const uint slot = get_global_id(0);
+  if (slot >= count) return;
+  const SpmScene sc = SPM_SCENE;
+  const uint id = first_stream + slot;
+  const SpmRng rng = rng_make(seed, pass, id, 0);
+  const float4 u0 = rng4(rng, SPM_RNG_EMIT, 0);
+  const float4 u1 = rng4(rng, SPM_RNG_EMIT, 1);
+  float prob;
+  const __global SpmLight* l = &sc.lights[pick_light(&sc, u0.x, &prob)];
+  float3 p, n, d, power;
+  if (l->type == SPM_LIGHT_AREA) {
+    sample_area_light_point(&sc, l, u0.yzw, &p, &n);
+    d = to_world(sample_cosine_hemisphere(u1.x, u1.y), n);
+    power = SPM_PI * l->area * load3(l->emission);
+    p = offset_origin(p, n);
+  } else if (l->type == SPM_LIGHT_POINT) {
+    p = load3(l->position);
+    d = sample_uniform_sphere(u1.x, u1.y);
+    n = d;
+    power = 4.0f * SPM_PI * load3(l->emission);
+  } else {
+    p = load3(l->position);
+    const float3 cone = sample_uniform_cone(u1.x, u1.y, l->cos_cutoff);
+    d = normalize(cone.x * load3(l->axis_x) + cone.y * load3(l->axis_y) + cone.z * load3(l->axis_z));
+    n = d;
+    /* Intensity times falloff over the cone's sampling density. */
+    power = load3(l->emission) * spot_falloff(l, cone.z) * (2.0f * SPM_PI * (1.0f - l->cos_cutoff));
+  }
+  st_origin[slot] = (float4)(p, 0.0f);
+  st_direction[slot] = (float4)(d, 0.0f);
+  st_phi[slot] = (float4)(power / (prob * (float)pass_streams * (float)associated), 0.0f);
+  st_event_pos[slot] = (float4)(p, 0.0f);
+  st_event_normal[slot] = (float4)(n, 0.0f);
+  st_alive[slot] = associated;
+  st_alive_next[slot] = associated;
+  st_medium[slot] = l->medium;
+  st_bounces[slot] = 0;
+  st_events[slot] = 1; /* event 0 was the emission */
+  st_medium_events[slot] = 0;
+  st_state[slot] = SPM_ACT_DISK;
+  st_flags[slot] = 0;
+  st_id[slot] = id;
+  queue[slot] = slot;
+}
