@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 
 #include "device/device.h"
 #include "film/image_io.h"
@@ -40,7 +41,18 @@ struct RenderArgs {
   std::string scene, output, png, device, res, kernel_dir;
   std::vector<std::string> defines;
   spm::RenderSettings settings;
+  // Overrides of the scene's <integrator type="spm"> properties.
+  std::optional<int> streams, associated, bounces;
+  std::optional<float> width, march_step;
 };
+
+void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
+  if (a.streams) in.streams = *a.streams;
+  if (a.associated) in.associated = *a.associated;
+  if (a.bounces) in.max_bounces = *a.bounces;
+  if (a.width) in.width = *a.width;
+  if (a.march_step) in.march_step = *a.march_step;
+}
 
 std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
   std::map<std::string, std::string> out;
@@ -66,7 +78,8 @@ void parse_res(const std::string& res, spm::RenderSettings& s) {
 int cmd_render(const RenderArgs& a) {
   spm::RenderSettings settings = a.settings;
   parse_res(a.res, settings);
-  const spm::Scene scene = spm::load_scene(a.scene, parse_defines(a.defines));
+  spm::Scene scene = spm::load_scene(a.scene, parse_defines(a.defines));
+  apply_overrides(a, scene.integrator);
   settings = spm::resolve_settings(scene, settings);
   const spm::DeviceInfo info = spm::select_device(a.device);
   spm::Device device(info, a.kernel_dir);
@@ -116,6 +129,15 @@ int main(int argc, char** argv) {
   render->add_option("--seed", r.settings.seed, "Random seed");
   render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value (repeatable)")
       ->allow_extra_args(false);
+  render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams')");
+  render->add_option("--associated", r.associated,
+                     "Associated photons per stream, N_a (integrator 'associated')");
+  render->add_option("--width", r.width, "Stream width w: respawn sphere and deposit disk radius (integrator 'width')");
+  render->add_option("--bounces", r.bounces, "Diffuse bounces before a stream ends (integrator 'max_bounces')");
+  render->add_option("--march-step", r.march_step,
+                     "Ray-marching interval in media; 0 samples free flights exactly (integrator 'march_step')");
+  render->add_option("--dump-maps", r.settings.dump_maps,
+                     "Write the first pass's maps as PREFIX_volume.ply and PREFIX_surface.ply (position, flux)");
   render->add_option("--kernel-dir", r.kernel_dir,
                      "Load kernels from this directory instead of the embedded sources")
       ->check(CLI::ExistingDirectory);

@@ -18,7 +18,8 @@
   S(SpmLightPrim, 8)          \
   S(SpmCamera, 96)            \
   S(SpmVolumeRecord, 48)      \
-  S(SpmSurfaceRecord, 64)
+  S(SpmSurfaceRecord, 64)     \
+  S(SpmGridInfo, 32)
 
 /* F(struct, field) */
 #define SPM_LAYOUT_FIELDS(F)                                                                    \
@@ -43,6 +44,7 @@
   F(SpmVolumeRecord, event) F(SpmVolumeRecord, flux)                                            \
   F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
   F(SpmSurfaceRecord, event_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
-  F(SpmSurfaceRecord, normal)
+  F(SpmSurfaceRecord, normal)                                                                   \
+  F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

@@ -175,4 +175,15 @@ typedef struct SpmSurfaceRecord {
   spm_uint pad;
 } SpmSurfaceRecord;
 
+/* Uniform grid over spheres of radius r around map records (METHOD.md 5),
+ * built on the host as flat CSR arrays: the records of cell c are
+ * items[cell_start[c] .. cell_start[c + 1]). Cell (x, y, z) has index
+ * x + dims[0] * (y + dims[1] * z). */
+typedef struct SpmGridInfo {
+  spm_float lo[3];   /* corner of cell (0, 0, 0) */
+  spm_float cell;    /* edge length of the cubic cells */
+  spm_uint dims[3];  /* cells per axis (each >= 1) */
+  spm_uint records;  /* records in the map */
+} SpmGridInfo;
+
 #endif

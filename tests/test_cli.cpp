@@ -132,6 +132,51 @@ TEST_F(Cli, UsageErrorsAreBadInput) {
   EXPECT_EQ(run("render " + scene + " -o " + path("o.exr") + " -D nodefault=3").code, 2);
 }
 
+TEST_F(Cli, StreamOptionsAreValidated) {
+  const std::string scene = write("tiny.xml", kTinyScene);
+  const std::string base = "render " + scene + " -o " + path("o.exr") + " --spp 1 ";
+  EXPECT_EQ(run(base + "--streams 100 --associated 4 --width 0.1 --bounces 2 --march-step 0.5").code, 0);
+  for (const char* bad : {"--streams 0", "--associated 0", "--associated 70000", "--width -1", "--bounces 0",
+                          "--march-step -0.5", "--width nan"}) {
+    const Outcome r = run(base + bad);
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_EQ(count_lines(r.err), 1) << bad << ": " << r.err;
+  }
+}
+
+// Reads a binary PLY written by --dump-maps: its vertex count, checking that
+// the header declares what the renderer writes and the body has that size.
+long ply_vertices(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string line, header;
+  long vertices = -1;
+  while (std::getline(in, line) && line != "end_header") {
+    header += line + "\n";
+    if (line.rfind("element vertex ", 0) == 0) vertices = std::stol(line.substr(15));
+  }
+  EXPECT_NE(header.find("format binary_little_endian 1.0"), std::string::npos);
+  EXPECT_NE(header.find("property float flux_g"), std::string::npos);
+  const std::streampos body = in.tellg();
+  in.seekg(0, std::ios::end);
+  EXPECT_EQ(static_cast<long>(in.tellg() - body), vertices * (6 * 4 + 3)) << file;
+  return vertices;
+}
+
+TEST_F(Cli, DumpMapsWritesPlyPointClouds) {
+  std::string scene = kTinyScene;
+  // Put the light and the plane in fog, so both maps get records.
+  scene.replace(scene.find("<shape"), 0,
+                "<medium type=\"homogeneous\" id=\"fog\"><float name=\"sigma_t\" value=\"0.3\"/></medium>");
+  scene.replace(scene.find("</shape>"), 0, "<ref name=\"exterior\" id=\"fog\"/>");
+  scene.replace(scene.find("</emitter>"), 0, "<ref id=\"fog\"/>");
+  const std::string file = write("fog.xml", scene);
+  const Outcome r = run("render " + file + " -o " + path("o.exr") + " --spp 1 --streams 500 --associated 4 --dump-maps " +
+                        path("maps/m"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_GT(ply_vertices(path("maps/m_volume.ply")), 0);
+  EXPECT_GT(ply_vertices(path("maps/m_surface.ply")), 0);
+}
+
 TEST_F(Cli, HelpAndDevicesSucceed) {
   EXPECT_EQ(run("--help").code, 0);
   EXPECT_EQ(run("render --help").code, 0);

@@ -6,47 +6,14 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <stb_image_write.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 
 #include "util/errors.h"
+#include "util/temp_file.h"
 
 namespace spm {
-
-namespace fs = std::filesystem;
-
-namespace {
-
-// A sibling temporary name, unique per process, renamed over `path` on commit.
-class TempFile {
- public:
-  explicit TempFile(const std::string& path)
-      : path_(path), tmp_(path + ".tmp" + std::to_string(::getpid())) {
-    const fs::path dir = fs::path(path).parent_path();
-    std::error_code ec;
-    if (!dir.empty()) fs::create_directories(dir, ec);
-  }
-  ~TempFile() {
-    std::error_code ec;
-    if (!committed_) fs::remove(tmp_, ec);
-  }
-  const std::string& name() const { return tmp_; }
-  void commit() {
-    std::error_code ec;
-    fs::rename(tmp_, path_, ec);
-    if (ec) throw RuntimeError("cannot write " + path_ + ": " + ec.message());
-    committed_ = true;
-  }
-
- private:
-  std::string path_, tmp_;
-  bool committed_ = false;
-};
-
-}  // namespace
 
 unsigned char to_srgb8(float linear) {
   const float c = std::clamp(std::isfinite(linear) ? linear : 0.0f, 0.0f, 1.0f);

@@ -1,8 +1,11 @@
 #include "render/render.h"
 
 #include <chrono>
+#include <cmath>
 
 #include "scene/gpu_scene.h"
+#include "spm/maps_io.h"
+#include "spm/streams.h"
 #include "util/errors.h"
 
 namespace spm {
@@ -22,7 +25,31 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   if (s.max_depth < 1 || s.max_depth > kMaxDepthLimit) {
     throw InputError(scene.integrator.where, "max_depth must be in 1 .. " + std::to_string(kMaxDepthLimit));
   }
+  const IntegratorSettings& in = scene.integrator;
+  const auto check = [&](bool ok, const std::string& what) {
+    if (!ok) throw InputError(in.where.empty() ? scene.path : in.where, what);
+  };
+  check(in.streams >= 1, "streams must be at least 1 (--streams)");
+  check(in.associated >= 1 && in.associated <= 65535, "associated must be in 1 .. 65535 (--associated)");
+  check(in.width > 0.0f && std::isfinite(in.width), "the stream width must be positive (--width)");
+  check(in.radius > 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
+  check(in.max_bounces >= 1, "max_bounces must be at least 1 (--bounces)");
+  check(in.march_step >= 0.0f && std::isfinite(in.march_step), "march_step must not be negative (--march-step)");
   return s;
+}
+
+StreamSettings stream_settings(const Scene& scene, const RenderSettings& s, int pass) {
+  const IntegratorSettings& in = scene.integrator;
+  StreamSettings out;
+  out.streams = static_cast<uint32_t>(in.streams);
+  out.associated = static_cast<uint32_t>(in.associated);
+  out.width = in.width;
+  out.max_bounces = static_cast<uint32_t>(in.max_bounces);
+  out.march_step = in.march_step;
+  out.seed = s.seed;
+  out.pass = static_cast<uint32_t>(pass);
+  out.memory_budget = s.memory_budget;
+  return out;
 }
 
 Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats,
@@ -39,6 +66,8 @@ Image render(const Scene& scene, const RenderSettings& settings, Device& device,
   std::vector<double> sum(pixels * 3, 0.0);
   const auto start = std::chrono::steady_clock::now();
   for (int pass = 0; pass < s.passes; ++pass) {
+    const PhotonMaps maps = trace_streams(device, gpu, stream_settings(scene, s, pass));
+    if (pass == 0 && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
     set_args(gather, gpu, gpu.camera(), film, cl_uint(s.spp), cl_uint(s.max_depth), cl_uint(s.seed),
              cl_uint(pass));
     device.launch("gather", gather, pixels);

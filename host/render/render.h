@@ -9,6 +9,7 @@
 #include "device/device.h"
 #include "film/image_io.h"
 #include "scene/scene.h"
+#include "spm/streams.h"
 
 namespace spm {
 
@@ -19,6 +20,8 @@ struct RenderSettings {
   int passes = 0;  // 0: the integrator's `passes`
   uint32_t seed = 0;
   int max_depth = 0;  // 0: the integrator's `max_depth`
+  std::string dump_maps;     // PLY prefix for the first pass's photon maps; empty: none
+  size_t memory_budget = 0;  // device bytes for a batch of streams; 0: from the device
 };
 
 struct RenderStats {
@@ -35,9 +38,13 @@ using Progress = std::function<void(int, int)>;
 // gather kernel gives each sample (kernels/spm_gather.cl).
 constexpr int kMaxDepthLimit = 60;
 
-// Validates settings against the scene and fills the zeros from it; throws
+// Validates settings and the scene's integrator (command-line overrides
+// already applied to it) and fills the zeros from the scene; throws
 // InputError for values out of range.
 RenderSettings resolve_settings(const Scene& scene, RenderSettings s);
+
+// The stream propagation settings of pass `pass`.
+StreamSettings stream_settings(const Scene& scene, const RenderSettings& settings, int pass);
 
 Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats = nullptr,
              const Progress& progress = {});

@@ -1,0 +1,152 @@
+#include "spm/sphere_grid.h"
+
+#include <chrono>
+#include <limits>
+#include <string>
+
+#include "util/errors.h"
+
+namespace spm {
+
+namespace {
+
+// Largest n with n^3 <= m, so cubes of edge extent / n keep every axis at <= n
+// cells. m is capped at 2^62, far past any grid that fits in memory, so that
+// (n + 1)^3 cannot overflow.
+uint64_t cube_root_floor(uint64_t m) {
+  m = std::min<uint64_t>(m, uint64_t(1) << 62);
+  uint64_t n = static_cast<uint64_t>(std::cbrt(static_cast<double>(m)));
+  while (n * n * n > m) --n;
+  while ((n + 1) * (n + 1) * (n + 1) <= m) ++n;
+  return n;
+}
+
+// The grid's corner and edge are stored as float; rounding them outwards keeps
+// every ball inside the grid and every edge >= 2r.
+float float_down(double d) {
+  const float f = static_cast<float>(d);
+  return static_cast<double>(f) > d ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+
+float float_up(double d) {
+  const float f = static_cast<float>(d);
+  return static_cast<double>(f) < d ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
+// Calls f(cell index) for every cell whose closed box lies within distance r of
+// p, in increasing index order. The box test is separable, so whole slabs of
+// cells are skipped as soon as one axis alone is too far.
+template <typename F>
+void for_each_overlapped_cell(const SpmGridInfo& g, const glm::vec3& p, double r, F&& f) {
+  const double r2 = r * r, cell = g.cell;
+  int64_t first[3], last[3];
+  for (int k = 0; k < 3; ++k) {
+    // One cell of slack each side absorbs rounding in the division; the exact
+    // test below decides.
+    first[k] = std::max<int64_t>(0, static_cast<int64_t>(std::floor((p[k] - r - g.lo[k]) / cell)) - 1);
+    last[k] = std::min<int64_t>(int64_t(g.dims[k]) - 1,
+                                static_cast<int64_t>(std::floor((p[k] + r - g.lo[k]) / cell)) + 1);
+  }
+  // Squared distance along axis k from p to the closed interval of cell x.
+  auto gap2 = [&](int k, int64_t x) {
+    const double b0 = g.lo[k] + double(x) * cell, b1 = g.lo[k] + double(x + 1) * cell;
+    const double d = std::max({b0 - p[k], p[k] - b1, 0.0});
+    return d * d;
+  };
+  for (int64_t z = first[2]; z <= last[2]; ++z) {
+    const double dz = gap2(2, z);
+    if (dz > r2) continue;
+    for (int64_t y = first[1]; y <= last[1]; ++y) {
+      const double dyz = dz + gap2(1, y);
+      if (dyz > r2) continue;
+      const size_t row = g.dims[0] * (size_t(y) + g.dims[1] * size_t(z));
+      for (int64_t x = first[0]; x <= last[0]; ++x) {
+        if (dyz + gap2(0, x) <= r2) f(row + size_t(x));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+SphereGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius, size_t max_cells) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(radius > 0.0f) || !std::isfinite(radius)) {
+    throw InputError("", "the gather radius must be positive and finite, got " + std::to_string(radius));
+  }
+  if (max_cells == 0) throw InputError("", "the sphere grid needs max_cells >= 1");
+  if (centres.size() > std::numeric_limits<uint32_t>::max()) {
+    throw RuntimeError("sphere grid: " + std::to_string(centres.size()) + " records exceed 32-bit record indices");
+  }
+
+  // Bounding box of all balls; an empty map gets one cell of edge 2r at the origin.
+  const double r = radius;
+  glm::dvec3 lo(0.0), hi(2.0 * r);
+  if (!centres.empty()) {
+    lo = glm::dvec3(std::numeric_limits<double>::max());
+    hi = -lo;
+    for (size_t i = 0; i < centres.size(); ++i) {
+      const glm::vec3& c = centres[i];
+      if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z)) {
+        throw RuntimeError("sphere grid: non-finite record position (" + std::to_string(c.x) + ", " +
+                           std::to_string(c.y) + ", " + std::to_string(c.z) + ") at record " + std::to_string(i));
+      }
+      lo = glm::min(lo, glm::dvec3(c));
+      hi = glm::max(hi, glm::dvec3(c));
+    }
+    lo -= r;
+    hi += r;
+  }
+
+  SphereGrid grid;
+  SpmGridInfo& g = grid.info;
+  g.records = static_cast<uint32_t>(centres.size());
+  double extent = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    g.lo[k] = float_down(lo[k]);
+    extent = std::max(extent, hi[k] - g.lo[k]);
+  }
+  // Edge >= 2r keeps a record in at most 8 cells (barring exact tangency).
+  float cell = float_up(std::max(2.0 * r, extent / double(cube_root_floor(max_cells))));
+  uint64_t cells;
+  for (;;) {
+    if (!std::isfinite(cell)) {
+      throw RuntimeError("sphere grid: cell edge overflows float (extent " + std::to_string(extent) + ")");
+    }
+    cells = 1;
+    for (int k = 0; k < 3; ++k) {
+      g.dims[k] = static_cast<uint32_t>(std::max(1.0, std::ceil((hi[k] - g.lo[k]) / cell)));
+      cells *= g.dims[k];
+    }
+    if (cells <= max_cells) break;
+    // Rounding the edge to float can leave an axis one cell over the cap.
+    cell = std::nextafter(cell, std::numeric_limits<float>::infinity());
+  }
+  g.cell = cell;
+
+  // Counting sort: count each cell's records into cell_start[c + 1], prefix-sum,
+  // then fill in record order so each cell's list is increasing.
+  grid.cell_start.assign(cells + 1, 0);
+  for (const glm::vec3& c : centres) {
+    for_each_overlapped_cell(g, c, r, [&](size_t cell_index) { ++grid.cell_start[cell_index + 1]; });
+  }
+  uint64_t total = 0;
+  for (size_t c = 1; c <= cells; ++c) {
+    total += grid.cell_start[c];
+    if (total > std::numeric_limits<uint32_t>::max()) {
+      throw RuntimeError("sphere grid: more than 2^32 (record, cell) pairs; use a smaller radius or fewer records");
+    }
+    grid.cell_start[c] = static_cast<uint32_t>(total);
+  }
+  grid.items.resize(total);
+  std::vector<uint32_t> next(grid.cell_start.begin(), grid.cell_start.end() - 1);
+  for (size_t i = 0; i < centres.size(); ++i) {
+    for_each_overlapped_cell(g, centres[i], r,
+                             [&](size_t cell_index) { grid.items[next[cell_index]++] = static_cast<uint32_t>(i); });
+  }
+
+  grid.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return grid;
+}
+
+}  // namespace spm

@@ -1,0 +1,55 @@
+// Uniform grid over the spheres of radius r around map records (METHOD.md 5),
+// built on the host as a counting sort into two flat arrays that upload as they
+// are (after SmallVCM's hashgrid). A gather ray walks the cells it crosses and
+// counts each record in the one cell that holds the record's closest point on
+// the ray, so every record within r of the ray is found exactly once.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "spm_types.h"
+
+namespace spm {
+
+struct SphereGrid {
+  SpmGridInfo info{};                // info.records = number of centres
+  std::vector<uint32_t> cell_start;  // size = cells + 1
+  std::vector<uint32_t> items;       // record indices, each cell's list in increasing record index
+  double build_seconds = 0.0;
+};
+
+// Every sphere of radius `radius` around centres[i] is listed in exactly the
+// cells its ball overlaps (squared distance from the centre to the closed cell
+// box <= radius^2), not in its whole bounding box. Cells are cubes of edge
+// max(2 radius, extent / floor(cbrt(max_cells))), so a ball meets at most two
+// cells per axis (three only when exactly tangent to two faces) and the grid
+// never exceeds max_cells cells; the grid covers the bounding box of all balls. An empty input gives a 1x1x1 grid with no items.
+// Throws InputError for a radius that is not positive and finite or a zero
+// max_cells, RuntimeError for a non-finite centre or more items than 32-bit
+// indices hold.
+SphereGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius,
+                             size_t max_cells = size_t(1) << 22);
+
+// Cell coordinates of point p, clamped to the grid; p must be finite. Float
+// arithmetic, as in the kernels, so host and device agree on a point's cell.
+inline glm::ivec3 grid_cell_of(const SpmGridInfo& g, const glm::vec3& p) {
+  glm::ivec3 c;
+  for (int k = 0; k < 3; ++k) {
+    const float u = std::floor((p[k] - g.lo[k]) / g.cell);
+    c[k] = static_cast<int>(std::clamp(u, 0.0f, static_cast<float>(g.dims[k] - 1)));
+  }
+  return c;
+}
+
+// Index of cell c in cell_start: x + dims[0] * (y + dims[1] * z).
+inline size_t grid_cell_index(const SpmGridInfo& g, const glm::ivec3& c) {
+  return static_cast<size_t>(c.x) + g.dims[0] * (static_cast<size_t>(c.y) + g.dims[1] * static_cast<size_t>(c.z));
+}
+
+}  // namespace spm

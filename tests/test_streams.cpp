@@ -1,0 +1,381 @@
+// Stream propagation (METHOD.md 2-4) against closed forms: free-flight
+// distances, survival rates, flux conservation, collapse, energy in a sphere,
+// the phase function and the respawn distributions. Fixed seeds; every bound
+// is a multiple of the standard error or a KS critical value at 0.001.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <sstream>
+
+#include "scene/loader.h"
+#include "spm/streams.h"
+#include "stats.h"
+#include "test_support.h"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+using spm::test::ks_critical;
+using spm::test::ks_statistic;
+using spm::test::mean_and_error;
+
+glm::dvec3 v3(const float* p) { return {p[0], p[1], p[2]}; }
+
+struct Traced {
+  spm::SceneTables tables;
+  spm::PhotonMaps maps;
+};
+
+spm::SceneTables tables_of(const std::string& xml) {
+  return spm::flatten_scene(spm::load_scene_string(xml, "streams.xml"), 4, 4);
+}
+
+Traced trace(const std::string& xml, const spm::StreamSettings& s) {
+  Traced t{tables_of(xml), {}};
+  spm::GpuScene gpu(spm::test::device(), t.tables);
+  t.maps = spm::trace_streams(spm::test::device(), gpu, s);
+  return t;
+}
+
+// A point light of intensity 1 at the origin in an unbounded homogeneous medium.
+std::string unbounded_medium(const std::string& sigma_t, const std::string& albedo, double g = 0.0) {
+  std::ostringstream x;
+  x << R"(<scene version="3.0.0">
+  <medium type="homogeneous" id="m"><rgb name="sigma_t" value=")"
+    << sigma_t << R"("/><rgb name="albedo" value=")" << albedo << R"("/>
+    <phase type="hg"><float name="g" value=")"
+    << g << R"("/></phase></medium>
+  <emitter type="point"><point name="position" x="0" y="0" z="0"/><rgb name="intensity" value="1"/><ref id="m"/></emitter>
+</scene>)";
+  return x.str();
+}
+
+// Volume records grouped by stream, in event order.
+std::map<uint32_t, std::vector<SpmVolumeRecord>> by_stream(const std::vector<SpmVolumeRecord>& records) {
+  std::map<uint32_t, std::vector<SpmVolumeRecord>> out;
+  for (const auto& r : records) out[r.stream].push_back(r);
+  return out;
+}
+
+spm::StreamSettings settings(uint32_t streams, uint32_t associated, float march_step = 0.0f) {
+  spm::StreamSettings s;
+  s.streams = streams;
+  s.associated = associated;
+  s.width = 0.5f;
+  s.march_step = march_step;
+  s.seed = 1234;
+  return s;
+}
+
+class FreeFlight : public ::testing::TestWithParam<float> {};
+
+TEST_P(FreeFlight, DistancesFollowTheExponential) {
+  const double sigma = 0.5;
+  const auto t = trace(unbounded_medium("0.5", "0.5"), settings(4000, 1, GetParam()));
+  std::vector<double> first;
+  for (const auto& [id, recs] : by_stream(t.maps.volume)) first.push_back(glm::length(v3(recs.front().position)));
+  ASSERT_EQ(first.size(), 4000u);
+  const double d = ks_statistic(first, [&](double x) { return 1.0 - std::exp(-sigma * x); });
+  EXPECT_LT(d, ks_critical(first.size())) << "march_step " << GetParam();
+}
+
+// Exact sampling, and steps shorter and longer than the mean free path (2).
+INSTANTIATE_TEST_SUITE_P(MarchSteps, FreeFlight, ::testing::Values(0.0f, 0.3f, 5.0f));
+
+TEST(Streams, RgbSigmaMarchesWithTheMeanAndReweights) {
+  // Channel-mean sampling with density ratios: the first collision's expected
+  // flux per channel is Phi in an unbounded medium. (The ratio's variance is
+  // finite only while every sigma_c > mean / 2; these values respect that.)
+  const auto t = trace(unbounded_medium("0.5, 0.8, 1.2", "0.5"), settings(20000, 1));
+  const auto streams = by_stream(t.maps.volume);
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> first;
+    for (const auto& [id, recs] : streams) first.push_back(recs.front().flux[c] * 20000.0);
+    const auto m = mean_and_error(first);
+    EXPECT_NEAR(m.mean, 4 * kPi, 4 * m.error) << "channel " << c;
+  }
+}
+
+TEST(Streams, SurvivalPerMediumEventIsTheAlbedo) {
+  const double albedo = 0.7;
+  const uint32_t n_a = 64, n_s = 2000;
+  const auto t = trace(unbounded_medium("1", "0.7"), settings(n_s, n_a));
+  // Gray medium: every record's flux is n * phi with the emitted phi, so the
+  // second record of a stream counts the survivors of the first event.
+  const double phi = 4 * kPi / (double(n_s) * n_a);
+  double survivors = 0.0;
+  for (const auto& [id, recs] : by_stream(t.maps.volume)) {
+    ASSERT_NEAR(recs.front().flux[0] / phi, n_a, 1e-3);
+    if (recs.size() > 1) survivors += std::round(recs[1].flux[0] / phi);
+  }
+  const double trials = double(n_s) * n_a;
+  const double p = survivors / trials;
+  EXPECT_NEAR(p, albedo, 4 * std::sqrt(albedo * (1 - albedo) / trials));
+}
+
+// A closed box of reflectance 0.6 (normals inward) around a point light.
+std::string diffuse_box(const std::string& reflectance) {
+  return R"(<scene version="3.0.0">
+  <shape type="cube"><boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale value="5"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value=")" +
+         reflectance + R"("/></bsdf></shape>
+  <emitter type="point"><point name="position" x="0" y="0" z="0"/><rgb name="intensity" value="1"/></emitter>
+</scene>)";
+}
+
+TEST(Streams, SurvivalPerDiffuseEventIsTheMeanReflectance) {
+  const uint32_t n_a = 64, n_s = 2000;
+  auto s = settings(n_s, n_a);
+  s.max_bounces = 2;
+  const auto t = trace(diffuse_box("0.9, 0.6, 0.3"), s);
+  // Records per (stream, event): the first deposit has all N_a photons, the
+  // second the survivors of the first bounce (survival = mean(0.9, 0.6, 0.3)).
+  std::map<uint32_t, std::map<uint32_t, int>> counts;
+  for (const auto& r : t.maps.surface) ++counts[r.stream][r.event_photon >> 16];
+  double survivors = 0.0;
+  for (const auto& [id, events] : counts) {
+    ASSERT_EQ(events.begin()->second, int(n_a));
+    if (events.size() > 1) survivors += std::next(events.begin())->second;
+  }
+  const double p = 0.6, trials = double(n_s) * n_a;
+  EXPECT_NEAR(survivors / trials, p, 4 * std::sqrt(p * (1 - p) / trials));
+}
+
+TEST(Streams, FluxIsConservedInExpectationForRgbAlbedo) {
+  // Unbounded medium: the expected flux summed over all collisions of a
+  // stream is Phi / (1 - albedo) per channel, however photons are eliminated.
+  // Survival is the mean albedo and survivors are reweighted by c / mean, so
+  // the estimator's variance is finite only while c^2 < mean for every
+  // channel; these values keep it finite so that the standard error bounds it.
+  const double albedo[3] = {0.6, 0.5, 0.4};
+  const uint32_t n_s = 4000;
+  const auto t = trace(unbounded_medium("0.8, 1.0, 1.3", "0.6, 0.5, 0.4"), settings(n_s, 16));
+  const auto streams = by_stream(t.maps.volume);
+  ASSERT_EQ(streams.size(), n_s);
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> totals;
+    for (const auto& [id, recs] : streams) {
+      double sum = 0.0;
+      for (const auto& r : recs) sum += r.flux[c];
+      totals.push_back(sum * n_s);
+    }
+    const auto m = mean_and_error(totals);
+    EXPECT_NEAR(m.mean, 4 * kPi / (1 - albedo[c]), 4 * m.error) << "channel " << c;
+  }
+}
+
+TEST(Streams, ScatteringStreamRecordsMatchTheClosedFormMean) {
+  // Unbounded medium, albedo a, N_a photons: record k + 1 exists iff a photon
+  // survived k rounds, so E[records] = sum_k 1 - (1 - a^k)^N_a.
+  const double a = 0.5;
+  const uint32_t n_a = 8, n_s = 5000;
+  const auto t = trace(unbounded_medium("1", "0.5"), settings(n_s, n_a));
+  double expected = 0.0;
+  for (int k = 0; k < 200; ++k) expected += 1.0 - std::pow(1.0 - std::pow(a, k), n_a);
+  std::vector<double> counts;
+  for (const auto& [id, recs] : by_stream(t.maps.volume)) counts.push_back(double(recs.size()));
+  ASSERT_EQ(counts.size(), n_s);
+  const auto m = mean_and_error(counts);
+  EXPECT_NEAR(m.mean, expected, 4 * m.error);
+}
+
+TEST(Streams, EnergyThroughAnAbsorbingMediumInABlackSphere) {
+  // A point light at the centre of a black sphere of radius R filled with an
+  // absorbing medium: the flux deposited on the sphere is Phi exp(-sigma R).
+  const double sigma = 0.3, radius = 4.0;
+  const uint32_t n_s = 20000, n_a = 4;
+  std::ostringstream x;
+  x << R"(<scene version="3.0.0">
+  <medium type="homogeneous" id="m"><float name="sigma_t" value=")"
+    << sigma << R"("/><float name="albedo" value="0"/></medium>
+  <shape type="sphere"><float name="radius" value=")"
+    << radius << R"("/><boolean name="flip_normals" value="true"/>
+    <bsdf type="diffuse"><float name="reflectance" value="0"/></bsdf><ref name="exterior" id="m"/></shape>
+  <emitter type="point"><point name="position" x="0" y="0" z="0"/><rgb name="intensity" value="1"/><ref id="m"/></emitter>
+</scene>)";
+  const auto t = trace(x.str(), settings(n_s, n_a));
+  double flux = 0.0;
+  for (const auto& r : t.maps.surface) {
+    flux += r.flux[0];
+    ASSERT_NEAR(glm::length(v3(r.position)), radius, 0.51);  // on the sphere, within the disk of w
+  }
+  const double phi = 4 * kPi, p = std::exp(-sigma * radius);
+  // Each stream reaches the sphere whole or not at all: a binomial over streams.
+  EXPECT_NEAR(flux / phi, p, 4 * std::sqrt(p * (1 - p) / n_s));
+  // Every stream that did not reach the sphere left exactly one volume record.
+  EXPECT_EQ(t.maps.volume.size() + t.maps.surface.size() / n_a, n_s);
+}
+
+TEST(Streams, SpecularCollapseKeepsTheFluxInOnePhoton) {
+  // A spot light (no falloff inside its cone, so every photon carries the
+  // same phi) aims at a mirror tilted 45 degrees, which reflects every stream
+  // down onto a diffuse floor.
+  const uint32_t n_a = 16, n_s = 2000;
+  const std::string xml = R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><scale value="100"/><rotate x="1" angle="-90"/></transform></shape>
+  <shape type="rectangle"><bsdf type="conductor"/>
+    <transform name="to_world"><scale value="3"/><rotate x="1" angle="45"/><translate y="5" z="-5"/></transform></shape>
+  <emitter type="spot"><rgb name="intensity" value="10"/>
+    <float name="cutoff_angle" value="10"/><float name="beam_width" value="10"/>
+    <transform name="to_world"><lookat origin="0, 5, 5" target="0, 5, -5" up="0, 1, 0"/></transform></emitter>
+</scene>)";
+  auto s = settings(n_s, n_a);
+  s.max_bounces = 1;
+  const auto t = trace(xml, s);
+  const double power = t.tables.lights[0].power;
+  // Before the mirror each stream carries N_a photons of phi = power / (N_s N_a);
+  // after it, n = 1 and the one photon carries the stream's whole flux.
+  ASSERT_EQ(t.maps.surface.size(), n_s);
+  std::map<uint32_t, int> per_stream;
+  for (const auto& r : t.maps.surface) {
+    ++per_stream[r.stream];
+    EXPECT_TRUE(r.flags & SPM_RECORD_HAD_EVENT);
+    EXPECT_EQ(r.event_photon & 0xffffu, 0u);
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(r.flux[c], power / n_s, 1e-5 * power / n_s);
+    EXPECT_NEAR(r.position[1], 0.0, 1e-3);
+    // Within the beam's footprint (15 units from the spot, 10 degrees).
+    EXPECT_LT(std::abs(r.position[0]), 15 * std::tan(10 * kPi / 180) + 1e-3);
+  }
+  EXPECT_EQ(per_stream.size(), n_s);
+}
+
+TEST(Streams, HenyeyGreensteinMeanCosineIsG) {
+  for (const double g : {0.6, -0.3}) {
+    const auto t = trace(unbounded_medium("1", "0.95", g), settings(3000, 4));
+    std::vector<double> cosines;
+    for (const auto& [id, recs] : by_stream(t.maps.volume)) {
+      for (size_t k = 1; k < recs.size(); ++k) cosines.push_back(glm::dot(v3(recs[k - 1].direction), v3(recs[k].direction)));
+    }
+    const auto m = mean_and_error(cosines);
+    EXPECT_NEAR(m.mean, g, 4 * m.error + 1e-4) << "g = " << g;
+    EXPECT_LT(m.error, 0.01);
+  }
+}
+
+TEST(Streams, RespawnIsUniformInTheSphere) {
+  const uint32_t n_a = 32, n_s = 500;
+  auto s = settings(n_s, n_a);
+  s.width = 2.0f;
+  const auto tables = tables_of(unbounded_medium("1", "0.8"));
+  auto& dev = spm::test::device();
+  spm::GpuScene gpu(dev, tables);
+  spm::StreamTracer tracer(dev, gpu, s);
+  spm::PhotonMaps maps;
+  tracer.emit(0, n_s);
+  tracer.make_room(maps);
+  tracer.step();  // one medium event each, then absorb and respawn in the sphere
+  tracer.flush(maps);
+  const auto photons = tracer.photon_positions();
+  const auto alive = dev.download<cl_uint>(tracer.state().alive, n_s);
+  std::vector<double> radii, cosines;
+  for (const auto& r : maps.volume) {
+    const uint32_t slot = r.stream;  // first stream 0: slot = id
+    for (uint32_t j = 0; j < alive[slot]; ++j) {
+      const glm::dvec3 p(photons[slot * n_a + j].s[0], photons[slot * n_a + j].s[1], photons[slot * n_a + j].s[2]);
+      const glm::dvec3 off = (p - v3(r.position)) / double(s.width);
+      radii.push_back(glm::length(off));
+      cosines.push_back(off.z / glm::length(off));
+    }
+  }
+  ASSERT_GT(radii.size(), 5000u);
+  EXPECT_LT(ks_statistic(radii, [](double r) { return r * r * r; }), ks_critical(radii.size()));
+  // Directions uniform: cos(theta) is uniform in [-1, 1].
+  EXPECT_LT(ks_statistic(cosines, [](double c) { return (c + 1) / 2; }), ks_critical(cosines.size()));
+}
+
+TEST(Streams, DepositsAreUniformInTheTangentDisk) {
+  const uint32_t n_a = 32, n_s = 500;
+  auto s = settings(n_s, n_a);
+  s.width = 1.5f;
+  const std::string xml = R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><scale value="1000"/><rotate x="1" angle="-90"/></transform></shape>
+  <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
+</scene>)";
+  const auto tables = tables_of(xml);
+  auto& dev = spm::test::device();
+  spm::GpuScene gpu(dev, tables);
+  spm::StreamTracer tracer(dev, gpu, s);
+  spm::PhotonMaps maps;
+  tracer.emit(0, n_s);
+  tracer.make_room(maps);
+  tracer.step();
+  const auto hits = dev.download<cl_float4>(tracer.state().event_pos, n_s);
+  tracer.flush(maps);
+  std::vector<double> radii;
+  for (const auto& r : maps.surface) {
+    const glm::dvec3 x(hits[r.stream].s[0], hits[r.stream].s[1], hits[r.stream].s[2]);
+    const glm::dvec3 off = v3(r.position) - x;
+    ASSERT_NEAR(off.y, 0.0, 1e-4);  // in the tangent plane
+    radii.push_back(glm::length(off) / s.width);
+  }
+  ASSERT_GT(radii.size(), 5000u);  // about half the streams hit the floor
+  EXPECT_LT(ks_statistic(radii, [](double r) { return r * r; }), ks_critical(radii.size()));
+}
+
+TEST(Streams, EmittedPhotonsAreUniformInTheDiskAroundTheOrigin) {
+  const uint32_t n_a = 32, n_s = 400;
+  auto s = settings(n_s, n_a);
+  s.width = 0.25f;
+  const std::string xml = R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/><translate y="2"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+</scene>)";
+  const auto tables = tables_of(xml);
+  auto& dev = spm::test::device();
+  spm::GpuScene gpu(dev, tables);
+  spm::StreamTracer tracer(dev, gpu, s);
+  tracer.emit(0, n_s);
+  const auto photons = tracer.photon_positions();
+  const auto origins = dev.download<cl_float4>(tracer.state().origin, n_s);
+  std::vector<double> radii;
+  for (uint32_t i = 0; i < n_s; ++i) {
+    for (uint32_t j = 0; j < n_a; ++j) {
+      const cl_float4& p = photons[i * n_a + j];
+      EXPECT_NEAR(p.s[1], origins[i].s[1], 1e-5);  // in the light's plane
+      radii.push_back(std::hypot(p.s[0] - origins[i].s[0], p.s[2] - origins[i].s[2]) / s.width);
+    }
+  }
+  EXPECT_LT(ks_statistic(radii, [](double r) { return r * r; }), ks_critical(radii.size()));
+}
+
+}  // namespace
+
+namespace {
+
+// Batches and flushes change only when records are downloaded, never what
+// they are: the sorted maps are bit-identical, and the counters agree with them.
+void expect_same_maps_in_batches(const std::string& xml, uint32_t associated, uint32_t min_flushes) {
+  auto s = settings(3000, associated);
+  s.width = 2.5f;
+  const auto whole = trace(xml, s);
+  s.memory_budget = 200 * 1024;  // a few hundred streams per batch
+  const auto split = trace(xml, s);
+  EXPECT_EQ(whole.maps.stats.batches, 1u);
+  EXPECT_GT(split.maps.stats.batches, 3u);
+  EXPECT_GE(split.maps.stats.flushes, min_flushes);
+  ASSERT_EQ(whole.maps.volume.size(), split.maps.volume.size());
+  ASSERT_EQ(whole.maps.surface.size(), split.maps.surface.size());
+  EXPECT_EQ(0, std::memcmp(whole.maps.volume.data(), split.maps.volume.data(),
+                           whole.maps.volume.size() * sizeof(SpmVolumeRecord)));
+  EXPECT_EQ(0, std::memcmp(whole.maps.surface.data(), split.maps.surface.data(),
+                           whole.maps.surface.size() * sizeof(SpmSurfaceRecord)));
+  EXPECT_EQ(split.maps.stats.counters[SPM_COUNT_VOLUME], split.maps.volume.size());
+  EXPECT_EQ(split.maps.stats.counters[SPM_COUNT_SURFACE], split.maps.surface.size());
+  EXPECT_EQ(split.maps.stats.counters[SPM_COUNT_EV_MEDIUM], split.maps.volume.size());
+}
+
+TEST(Streams, SmallMemoryBudgetGivesTheSameMapsInMoreBatches) {
+  expect_same_maps_in_batches(spm::test::read_file(SPM_SCENES_DIR "/cornell_fog.xml"), 20, 0);
+}
+
+TEST(Streams, FullMapBuffersAreFlushedNotDropped) {
+  // In a closed bright box every event deposits: the surface buffer (room for
+  // two iterations) fills within a batch and must be downloaded mid-batch.
+  expect_same_maps_in_batches(diffuse_box("0.9"), 20, 1);
+}
+
+}  // namespace
