@@ -43,7 +43,8 @@ struct RenderArgs {
   spm::RenderSettings settings;
   // Overrides of the scene's <integrator type="spm"> properties.
   std::optional<int> streams, associated, bounces;
-  std::optional<float> width, march_step;
+  std::optional<float> width, march_step, radius, alpha, time;
+  std::optional<std::string> estimator, kernel, direct;
 };
 
 void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
@@ -52,6 +53,12 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   if (a.bounces) in.max_bounces = *a.bounces;
   if (a.width) in.width = *a.width;
   if (a.march_step) in.march_step = *a.march_step;
+  if (a.radius) in.radius = *a.radius;
+  if (a.alpha) in.alpha = *a.alpha;
+  if (a.time) in.time = *a.time;
+  if (a.estimator) in.estimator = *a.estimator;
+  if (a.kernel) in.kernel = *a.kernel;
+  if (a.direct) in.direct = *a.direct;
 }
 
 std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
@@ -88,7 +95,9 @@ int cmd_render(const RenderArgs& a) {
   std::cerr << "spm: rendering " << a.scene << " at " << settings.width << "x" << settings.height << ", "
             << settings.passes << " pass(es) x " << settings.spp << " spp on " << info.name << "\n";
   const auto progress = [tty](int done, int total) {
-    if (tty) {
+    if (total == 0) {
+      std::cerr << (tty ? "\r" : "") << "spm: pass " << done << " done" << (tty ? "" : "\n") << std::flush;
+    } else if (tty) {
       const int width = 40, filled = width * done / total;
       std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] " << done << "/"
                 << total << (done == total ? "\n" : "") << std::flush;
@@ -98,6 +107,7 @@ int cmd_render(const RenderArgs& a) {
   };
   spm::RenderStats stats;
   const spm::Image image = spm::render(scene, settings, device, &stats, progress);
+  if (tty) std::cerr << "\n";
   spm::write_exr(a.output, image);
   const std::string png =
       a.png.empty() ? std::filesystem::path(a.output).replace_extension(".png").string() : a.png;
@@ -125,7 +135,8 @@ int main(int argc, char** argv) {
                      "Device: P:D or a case-insensitive name substring; default: first GPU, else first CPU");
   render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT, overriding the scene's film");
   render->add_option("--spp", r.settings.spp, "Camera samples per pixel per pass")->check(CLI::PositiveNumber);
-  render->add_option("--passes", r.settings.passes, "Number of passes")->check(CLI::PositiveNumber);
+  render->add_option("--passes", r.settings.passes, "Number of passes (each a full emit, propagate, gather)")
+      ->check(CLI::PositiveNumber);
   render->add_option("--seed", r.settings.seed, "Random seed");
   render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value (repeatable)")
       ->allow_extra_args(false);
@@ -136,6 +147,21 @@ int main(int argc, char** argv) {
   render->add_option("--bounces", r.bounces, "Diffuse bounces before a stream ends (integrator 'max_bounces')");
   render->add_option("--march-step", r.march_step,
                      "Ray-marching interval in media; 0 samples free flights exactly (integrator 'march_step')");
+  render->add_option("--radius", r.radius, "Search radius r of the estimates, first pass (integrator 'radius')");
+  render->add_option("--alpha", r.alpha,
+                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha')");
+  render->add_option("--time", r.time, "Render passes for this many seconds instead of a pass count (integrator 'time')");
+  render->add_option("--estimator", r.estimator,
+                     "Volume estimate: 'bre' (default), the physically based beam radiance estimate; 'paper', "
+                     "eq. (4) of the paper literally, kept to reproduce its figures: it has no phase function, "
+                     "transmittance or albedo and is not energy-consistent")
+      ->check(CLI::IsMember({"bre", "paper"}));
+  render->add_option("--kernel", r.kernel, "Density estimation kernel: uniform (default) or epanechnikov")
+      ->check(CLI::IsMember({"uniform", "epanechnikov"}));
+  render->add_option("--direct", r.direct,
+                     "Direct light on surfaces: 'nee' (default; shadow rays with transmittance) or 'photons' "
+                     "(photon map only, the paper's look)")
+      ->check(CLI::IsMember({"nee", "photons"}));
   render->add_option("--dump-maps", r.settings.dump_maps,
                      "Write the first pass's maps as PREFIX_volume.ply and PREFIX_surface.ply (position, flux)");
   render->add_option("--kernel-dir", r.kernel_dir,

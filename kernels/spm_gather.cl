@@ -1,17 +1,34 @@
-/* spm_gather: one work-item per pixel, spp camera samples each (METHOD.md 5).
- * From: camera. To: the pass's film (mean radiance of the pixel's samples).
+/* spm_gather: one work-item per pixel, spp camera samples each (METHOD.md 5;
+ * paper 3.2, eq. 4). From: camera, photon maps and their grids. To: the
+ * pass's film (mean radiance of the pixel's samples).
  *
- * This version carries the frame the photon estimates plug into: jittered
- * camera rays through the pixel filter, specular chains (mirror, dielectric),
- * null boundaries switching the medium, transmittance of every medium crossed
- * (paper eq. 2), emission seen directly or through specular chains, and direct
- * lighting at the first diffuse surface by next-event estimation with shadow
- * rays that carry transmittance. */
+ * A camera ray through the pixel filter follows specular chains (mirror,
+ * dielectric) and null boundaries. Along every segment inside a medium it
+ * adds the beam radiance estimate over the volumetric stream map and is
+ * attenuated by the medium's transmittance (paper eq. 2); at the first diffuse
+ * surface it adds the surface photon map's estimate and, by default, direct
+ * light by next-event estimation with shadow rays that carry transmittance. */
 #include "spm_types.h"
 #include "lib/bsdf.h"
 #include "lib/camera.h"
+#include "lib/estimate.h"
 #include "lib/lights.h"
 #include "lib/rng.h"
+
+#define SPM_DIRECT_NEE 0u
+#define SPM_DIRECT_PHOTONS 1u
+
+/* What the estimates need, bundled for the path loop. */
+typedef struct SpmMaps {
+  SpmGrid volume_grid;
+  const __global SpmVolumeRecord* volume;
+  SpmGrid surface_grid;
+  const __global SpmSurfaceRecord* surface;
+  float radius;
+  uint kernel_type;
+  uint estimator;
+  uint direct;
+} SpmMaps;
 
 /* Null boundaries a shadow ray may cross before it counts as blocked; scenes
  * nest media a few levels deep at most. */
@@ -54,29 +71,33 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
 }
 
 /* One camera sample's radiance. */
-inline float3 radiance(const SpmScene* s, const __global SpmCamera* cam, float3 o, float3 d, float tmin, float tmax,
-                       uint max_depth, SpmRng rng) {
+inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
+                       float tmin, float tmax, uint max_depth, SpmRng rng, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
   int medium = cam->medium;
-  bool count_emission = true; /* only for paths with no diffuse vertex, as NEE covers the rest */
   uint specular = 0;
   const uint first_event = rng.event;
   for (uint vertex = 0; vertex < 4 * max_depth + 4; ++vertex) {
     rng.event = first_event + vertex;
     SpmHit h;
     const bool hit = scene_trace(s, o + tmin * d, d, tmax - tmin, &h);
-    if (!hit) {
-      /* Escaping inside a medium attenuates to nothing; outside there is no
-       * environment light in the supported subset. */
-      break;
+    const float t_end = hit ? h.t + tmin : tmax;
+    if (medium >= 0) {
+      L += beta * beam_estimate(maps->volume_grid, maps->volume, s->media, medium, o, d, tmin, t_end, maps->radius,
+                                maps->kernel_type, maps->estimator, tests);
     }
-    h.t += tmin;
+    /* Escaping: outside a medium there is no environment light in the
+     * supported subset, inside one the light has all been gathered. */
+    if (!hit) break;
+    h.t = t_end;
     beta *= medium_transmittance(s, medium, h.t - tmin);
     const SpmSurface surf = scene_surface(s, o, d, h);
     const __global SpmShape* shape = &s->shapes[surf.shape];
     const __global SpmMaterial* m = &s->materials[shape->material];
-    if (count_emission && shape->light >= 0 && dot(d, surf.ng) < 0.0f) {
+    /* Emission seen directly or through specular chains: paths end at their
+     * first diffuse vertex, whose light NEE and the photon maps provide. */
+    if (shape->light >= 0 && dot(d, surf.ng) < 0.0f) {
       L += beta * load3(s->lights[shape->light].emission);
     }
     tmin = 0.0f;
@@ -87,7 +108,13 @@ inline float3 radiance(const SpmScene* s, const __global SpmCamera* cam, float3 
       continue;
     }
     if (m->type == SPM_MAT_DIFFUSE) {
-      if (reflects_from(m, &surf, d)) L += beta * direct_diffuse(s, &surf, m, d, rng);
+      if (reflects_from(m, &surf, d)) {
+        const bool nee = maps->direct == SPM_DIRECT_NEE;
+        if (nee) L += beta * direct_diffuse(s, &surf, m, d, rng);
+        const float3 flux = surface_estimate(maps->surface_grid, maps->surface, surf.p, facing_normal(&surf, d),
+                                             maps->radius, maps->kernel_type, nee);
+        L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
+      }
       break;
     }
     if (++specular > max_depth) break;
@@ -102,11 +129,30 @@ inline float3 radiance(const SpmScene* s, const __global SpmCamera* cam, float3 
   return L;
 }
 
-__kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global float4* film, uint spp,
-                         uint max_depth, uint seed, uint pass) {
+__kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global float4* film,
+                         __global uint* tests_out, uint spp, uint max_depth, uint seed, uint pass, float radius,
+                         uint kernel_type, uint estimator, uint direct, const __global SpmGridInfo* volume_info,
+                         const __global uint* volume_start, const __global uint* volume_items,
+                         const __global SpmVolumeRecord* volume, const __global SpmGridInfo* surface_info,
+                         const __global uint* surface_start, const __global uint* surface_items,
+                         const __global SpmSurfaceRecord* surface) {
   const uint pixel = get_global_id(0);
   if (pixel >= camera->width * camera->height) return;
   const SpmScene s = SPM_SCENE;
+  SpmMaps maps;
+  maps.volume_grid.info = volume_info;
+  maps.volume_grid.cell_start = volume_start;
+  maps.volume_grid.items = volume_items;
+  maps.volume = volume;
+  maps.surface_grid.info = surface_info;
+  maps.surface_grid.cell_start = surface_start;
+  maps.surface_grid.items = surface_items;
+  maps.surface = surface;
+  maps.radius = radius;
+  maps.kernel_type = kernel_type;
+  maps.estimator = estimator;
+  maps.direct = direct;
+  uint tests = 0;
   const uint px = pixel % camera->width;
   const uint py = pixel / camera->width;
   float3 sum = (float3)(0.0f);
@@ -119,7 +165,8 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
     float3 o;
     float tmin, tmax;
     const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
-    sum += radiance(&s, camera, o, d, tmin, tmax, max_depth, rng);
+    sum += radiance(&s, &maps, camera, o, d, tmin, tmax, max_depth, rng, &tests);
   }
   film[pixel] = (float4)(sum / (float)spp, 1.0f);
+  tests_out[pixel] = tests;
 }

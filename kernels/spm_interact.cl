@@ -53,7 +53,7 @@ __kernel void spm_interact(SPM_SCENE_PARAMS, const __global uint* queue, uint co
       vstore3(flux, 0, r->flux);
       r->stream = st_id[s];
       r->event = event;
-      r->pad = 0;
+      r->medium = st_medium[s];
     } else {
       atomic_or(&counters[SPM_COUNT_ERRORS], SPM_ERROR_VOLUME_OVERFLOW);
     }

@@ -41,7 +41,7 @@
   F(SpmCamera, width) F(SpmCamera, height) F(SpmCamera, medium) F(SpmCamera, filter)            \
   F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)                                       \
   F(SpmVolumeRecord, position) F(SpmVolumeRecord, stream) F(SpmVolumeRecord, direction)         \
-  F(SpmVolumeRecord, event) F(SpmVolumeRecord, flux)                                            \
+  F(SpmVolumeRecord, event) F(SpmVolumeRecord, flux) F(SpmVolumeRecord, medium)                                          \
   F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
   F(SpmSurfaceRecord, event_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
   F(SpmSurfaceRecord, normal)                                                                   \

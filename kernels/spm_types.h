@@ -156,7 +156,7 @@ typedef struct SpmVolumeRecord {
   spm_float direction[3]; /* the leader's direction of travel at the event */
   spm_uint event;  /* the stream's event index */
   spm_float flux[3]; /* n * phi: the whole stream's flux (RGB) */
-  spm_uint pad;
+  spm_int medium;    /* the medium the event happened in */
 } SpmVolumeRecord;
 
 /* Record flags. */

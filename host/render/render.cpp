@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "scene/gpu_scene.h"
+#include "spm/gather.h"
 #include "spm/maps_io.h"
 #include "spm/streams.h"
 #include "util/errors.h"
@@ -35,6 +36,8 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   check(in.radius > 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
   check(in.max_bounces >= 1, "max_bounces must be at least 1 (--bounces)");
   check(in.march_step >= 0.0f && std::isfinite(in.march_step), "march_step must not be negative (--march-step)");
+  check(in.alpha > 0.0f && in.alpha < 1.0f, "alpha must be in (0, 1) (--alpha)");
+  check(in.time >= 0.0f && std::isfinite(in.time), "the time budget must not be negative (--time)");
   return s;
 }
 
@@ -52,41 +55,80 @@ StreamSettings stream_settings(const Scene& scene, const RenderSettings& s, int 
   return out;
 }
 
+float pass_radius(float r0, float alpha, int pass) {
+  // r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) for passes k = 1, 2, ... (Knaus &
+  // Zwicker 2011); `pass` counts from 0.
+  double r2 = double(r0) * r0;
+  for (int k = 1; k <= pass; ++k) r2 *= (k + double(alpha)) / (k + 1);
+  return static_cast<float>(std::sqrt(r2));
+}
+
+namespace {
+
+cl_uint code_of(const std::string& value, std::initializer_list<const char*> names) {
+  cl_uint i = 0;
+  for (const char* n : names) {
+    if (value == n) return i;
+    ++i;
+  }
+  throw InputError("", "unknown value '" + value + "'");
+}
+
+}  // namespace
+
 Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats,
              const Progress& progress) {
   const RenderSettings s = resolve_settings(scene, settings);
+  const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);
   GpuScene gpu(device, tables);
   const size_t pixels = static_cast<size_t>(s.width) * s.height;
   cl::Buffer film(device.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * pixels);
+  cl::Buffer tests(device.context(), CL_MEM_WRITE_ONLY, sizeof(cl_uint) * pixels);
   cl::Kernel gather = device.kernel("spm_gather", "spm_gather");
+  // The codes follow SPM_KERNEL_*, SPM_ESTIMATOR_* (kernels/lib/estimate.h)
+  // and SPM_DIRECT_* (kernels/spm_gather.cl).
+  const cl_uint kernel = code_of(in.kernel, {"uniform", "epanechnikov"});
+  const cl_uint estimator = code_of(in.estimator, {"bre", "paper"});
+  const cl_uint direct = code_of(in.direct, {"nee", "photons"});
 
   // Passes are summed in pass order in double precision, so the image does not
   // depend on which device rendered which pass (METHOD.md 6).
   std::vector<double> sum(pixels * 3, 0.0);
   const auto start = std::chrono::steady_clock::now();
-  for (int pass = 0; pass < s.passes; ++pass) {
-    const PhotonMaps maps = trace_streams(device, gpu, stream_settings(scene, s, pass));
+  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  const bool timed = in.time > 0.0f && settings.passes == 0;
+  RenderStats st;
+  int pass = 0;
+  for (; timed ? (pass == 0 || elapsed() < in.time) : pass < s.passes; ++pass) {
+    // Progressive radius (METHOD.md 6), the stream width shrinking with it.
+    const float radius = pass_radius(in.radius, in.alpha, pass);
+    StreamSettings ss = stream_settings(scene, s, pass);
+    ss.width = in.width * radius / in.radius;
+    const PhotonMaps maps = trace_streams(device, gpu, ss);
     if (pass == 0 && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
-    set_args(gather, gpu, gpu.camera(), film, cl_uint(s.spp), cl_uint(s.max_depth), cl_uint(s.seed),
-             cl_uint(pass));
+    const MapGrids grids(device, maps, radius);
+    st.grid_seconds += grids.build_seconds();
+    set_args(gather, gpu, gpu.camera(), film, tests, cl_uint(s.spp), cl_uint(s.max_depth), cl_uint(s.seed),
+             cl_uint(pass), radius, kernel, estimator, direct, grids);
     device.launch("gather", gather, pixels);
     const auto pass_film = device.download<cl_float4>(film, pixels);
     for (size_t i = 0; i < pixels; ++i) {
       for (int c = 0; c < 3; ++c) sum[3 * i + c] += pass_film[i].s[c];
     }
-    if (progress) progress(pass + 1, s.passes);
+    if (progress) progress(pass + 1, timed ? 0 : s.passes);
   }
   Image image;
   image.width = s.width;
   image.height = s.height;
   image.rgb.resize(pixels * 3);
-  for (size_t i = 0; i < sum.size(); ++i) image.rgb[i] = static_cast<float>(sum[i] / s.passes);
+  for (size_t i = 0; i < sum.size(); ++i) image.rgb[i] = static_cast<float>(sum[i] / pass);
   if (stats) {
-    stats->passes = s.passes;
-    stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    stats->bvh_seconds = tables.bvh_seconds;
-    stats->build_seconds = device.build_seconds();
+    st.passes = pass;
+    st.seconds = elapsed();
+    st.bvh_seconds = tables.bvh_seconds;
+    st.build_seconds = device.build_seconds();
+    *stats = st;
   }
   return image;
 }

@@ -17,7 +17,7 @@ struct RenderSettings {
   int width = 0;  // 0: the scene's film size
   int height = 0;
   int spp = 0;     // 0: the scene's sampler sample_count
-  int passes = 0;  // 0: the integrator's `passes`
+  int passes = 0;  // 0: the integrator's `passes`, or as many as its `time` allows
   uint32_t seed = 0;
   int max_depth = 0;  // 0: the integrator's `max_depth`
   std::string dump_maps;     // PLY prefix for the first pass's photon maps; empty: none
@@ -29,9 +29,11 @@ struct RenderStats {
   double seconds = 0.0;         // wall clock of the passes
   double bvh_seconds = 0.0;
   double build_seconds = 0.0;   // kernel program builds
+  double grid_seconds = 0.0;    // sphere grid builds, all passes
 };
 
-// Called after each finished pass with (passes done, passes in total).
+// Called after each finished pass with (passes done, passes in total), the
+// total 0 when the render runs for a time budget.
 using Progress = std::function<void(int, int)>;
 
 // Largest max_depth a camera path may use: its events must fit the 256 the
@@ -42,6 +44,9 @@ constexpr int kMaxDepthLimit = 60;
 // already applied to it) and fills the zeros from the scene; throws
 // InputError for values out of range.
 RenderSettings resolve_settings(const Scene& scene, RenderSettings s);
+
+// Search radius of pass `pass` (from 0) for initial radius r0 (METHOD.md 6).
+float pass_radius(float r0, float alpha, int pass);
 
 // The stream propagation settings of pass `pass`.
 StreamSettings stream_settings(const Scene& scene, const RenderSettings& settings, int pass);

@@ -649,6 +649,20 @@ class Loader {
       if (*e != "bre" && *e != "paper") p.fail("estimator", "unknown estimator '" + *e + "' (bre, paper)");
       s.estimator = *e;
     }
+    if (std::optional<std::string> k = p.get_string("kernel")) {
+      if (*k != "uniform" && *k != "epanechnikov") {
+        p.fail("kernel", "unknown kernel '" + *k + "' (uniform, epanechnikov)");
+      }
+      s.kernel = *k;
+    }
+    if (std::optional<std::string> d = p.get_string("direct")) {
+      if (*d != "nee" && *d != "photons") p.fail("direct", "unknown direct lighting '" + *d + "' (nee, photons)");
+      s.direct = *d;
+    }
+    if (std::optional<float> a = p.get_float("alpha")) {
+      if (!(*a > 0.0f && *a < 1.0f)) p.fail("alpha", "alpha must be in (0, 1)");
+      s.alpha = *a;
+    }
     p.finish();
     no_objects(p);
     register_id(node, -1);

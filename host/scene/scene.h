@@ -90,7 +90,10 @@ struct IntegratorSettings {
   int passes = 1;
   float time = 0.0f;  // seconds; 0: not time-limited
   int max_depth = 16;  // specular chain cap of camera rays
-  std::string estimator = "bre";
+  std::string estimator = "bre";    // bre | paper (METHOD.md 5)
+  std::string kernel = "uniform";   // uniform | epanechnikov
+  std::string direct = "nee";       // nee | photons
+  float alpha = 2.0f / 3.0f;        // radius reduction of progressive passes (METHOD.md 6)
   std::string where;
 };
 

@@ -1,0 +1,96 @@
+/* Density estimates of the gather (METHOD.md 5): the beam radiance estimate
+ * over the volumetric stream map and the surface estimate over the surface
+ * photon map, both through the host-built sphere grids. */
+#ifndef SPM_LIB_ESTIMATE_H
+#define SPM_LIB_ESTIMATE_H
+
+#include "grid.h"
+#include "phase.h"
+
+#define SPM_KERNEL_UNIFORM 0u
+#define SPM_KERNEL_EPANECHNIKOV 1u
+
+#define SPM_ESTIMATOR_BRE 0u
+#define SPM_ESTIMATOR_PAPER 1u
+
+/* A surface record counts if it lies within this fraction of r of the query's
+ * tangent plane: the disk of METHOD.md 5, given the thickness a curved surface
+ * or a corner needs and no more. */
+#define SPM_DISK_THICKNESS 0.1f
+
+/* 2D kernel normalised over the disk of radius r (d2, r2: squared distance
+ * and radius): uniform 1/(pi r^2), or Epanechnikov 2/(pi r^2) (1 - d^2/r^2),
+ * the smooth kernel the paper leaves to future work. */
+inline float kernel_2d(uint kernel_type, float d2, float r2) {
+  if (kernel_type == SPM_KERNEL_EPANECHNIKOV) return 2.0f * SPM_INV_PI / r2 * (1.0f - d2 / r2);
+  return SPM_INV_PI / r2;
+}
+
+/* In-scattered radiance towards the camera along [t0, t1] of o + t d (unit d)
+ * inside medium `m`, with transmittance measured from t0 (the caller applies
+ * the throughput up to t0). Each record whose sphere of radius r the segment
+ * crosses is counted once: in the cell holding its closest point on the ray.
+ * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
+ * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
+ * *tests counts the records examined (the profile's sphere tests). */
+inline float3 beam_estimate(SpmGrid grid, const __global SpmVolumeRecord* records, const __global SpmMedium* media,
+                            int m, float3 o, float3 d, float t0, float t1, float r, uint kernel_type, uint estimator,
+                            uint* tests) {
+  float3 sum = (float3)(0.0f);
+  SpmGridWalk walk;
+  if (grid.info->records == 0 || !grid_walk_begin(grid.info, o, d, t0, t1, &walk)) return sum;
+  const float r2 = r * r;
+  const float3 sigma_t = load3(media[m].sigma_t);
+  const float g = media[m].phase == SPM_PHASE_HG ? media[m].g : 0.0f;
+  do {
+    const uint c = grid_cell_index(grid.info, walk.cell);
+    for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
+      const __global SpmVolumeRecord* rec = &records[grid.items[k]];
+      ++*tests;
+      if (rec->medium != m) continue;
+      const float3 x = load3(rec->position);
+      const float t = dot(x - o, d);
+      if (t < t0 || t > t1) continue;
+      const float3 closest = o + t * d;
+      const float3 off = x - closest;
+      const float d2 = dot(off, off);
+      if (d2 >= r2) continue;
+      const int3 home = grid_cell_of(grid.info, closest);
+      if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
+      const float3 flux = load3(rec->flux);
+      if (estimator == SPM_ESTIMATOR_PAPER) {
+        sum += flux;
+      } else {
+        const float cos_theta = -dot(load3(rec->direction), d);
+        sum += kernel_2d(kernel_type, d2, r2) * exp(-sigma_t * (t - t0)) * phase_hg(cos_theta, g) * flux;
+      }
+    }
+  } while (grid_walk_next(grid.info, &walk));
+  if (estimator == SPM_ESTIMATOR_PAPER) return sum / (SPM_PI * r2 * (t1 - t0));
+  return sum * load3(media[m].albedo);
+}
+
+/* Photon flux density at x on a surface seen from the side of `n`: sum over
+ * records in the disk of radius r around x in its tangent plane, arriving on
+ * the same side, of K(d) phi. `skip_direct` drops records of streams that had
+ * no event before (their light is next-event estimation's). */
+inline float3 surface_estimate(SpmGrid grid, const __global SpmSurfaceRecord* records, float3 x, float3 n, float r,
+                               uint kernel_type, bool skip_direct) {
+  float3 sum = (float3)(0.0f);
+  if (grid.info->records == 0) return sum;
+  const float r2 = r * r;
+  const uint c = grid_cell_index(grid.info, grid_cell_of(grid.info, x));
+  for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
+    const __global SpmSurfaceRecord* rec = &records[grid.items[k]];
+    if (skip_direct && !(rec->flags & SPM_RECORD_HAD_EVENT)) continue;
+    if (dot(load3(rec->normal), n) <= 0.0f) continue;
+    const float3 off = load3(rec->position) - x;
+    const float h = dot(off, n);
+    const float d3 = dot(off, off);
+    if (d3 >= r2 || fabs(h) > SPM_DISK_THICKNESS * r) continue;
+    sum += kernel_2d(kernel_type, d3 - h * h, r2) * load3(rec->flux);
+  }
+  return sum;
+}
+
+#endif
