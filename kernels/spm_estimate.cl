@@ -1,0 +1,38 @@
+/* Test entry points of the gather's estimates (kernels/lib/estimate.h), so
+ * that they can be compared with a brute-force sum on the host.
+ * spm_beam_test: one work-item per ray segment (origin xyz + t0, direction
+ * xyz + t1). spm_surface_test: one per query point (xyz) with normal (xyz). */
+#include "spm_types.h"
+#include "lib/estimate.h"
+
+__kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uint* cell_start,
+                            const __global uint* items, const __global SpmVolumeRecord* records,
+                            const __global SpmMedium* media, const __global float4* origins,
+                            const __global float4* directions, __global float4* out, uint count, int medium,
+                            float radius, uint kernel_type, uint estimator) {
+  const uint i = get_global_id(0);
+  if (i >= count) return;
+  SpmGrid grid;
+  grid.info = info;
+  grid.cell_start = cell_start;
+  grid.items = items;
+  uint tests = 0;
+  const float3 l = beam_estimate(grid, records, media, medium, origins[i].xyz, directions[i].xyz, origins[i].w,
+                                 directions[i].w, radius, kernel_type, estimator, &tests);
+  out[i] = (float4)(l, (float)tests);
+}
+
+__kernel void spm_surface_test(const __global SpmGridInfo* info, const __global uint* cell_start,
+                               const __global uint* items, const __global SpmSurfaceRecord* records,
+                               const __global float4* points, const __global float4* normals, __global float4* out,
+                               uint count, float radius, uint kernel_type, uint skip_direct) {
+  const uint i = get_global_id(0);
+  if (i >= count) return;
+  SpmGrid grid;
+  grid.info = info;
+  grid.cell_start = cell_start;
+  grid.items = items;
+  out[i] = (float4)(surface_estimate(grid, records, points[i].xyz, normals[i].xyz, radius, kernel_type,
+                                     skip_direct != 0),
+                    0.0f);
+}

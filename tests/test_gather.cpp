@@ -1,0 +1,261 @@
+// The gather's estimates (kernels/lib/estimate.h) against brute-force sums
+// over all records on the host, the surface estimate against a known
+// radiance, and the progressive renders' consistency.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "render/render.h"
+#include "scene/loader.h"
+#include "spm/sphere_grid.h"
+#include "stats.h"
+#include "test_support.h"
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+using glm::dvec3;
+
+dvec3 v3(const float* p) { return {p[0], p[1], p[2]}; }
+
+double kernel_2d(int kernel, double d2, double r2) {
+  return kernel == 1 ? 2.0 / (kPi * r2) * (1.0 - d2 / r2) : 1.0 / (kPi * r2);
+}
+
+double phase_hg(double cos_theta, double g) {
+  const double denom = 1 + g * g - 2 * g * cos_theta;
+  return (1 - g * g) / (4 * kPi * denom * std::sqrt(denom));
+}
+
+// METHOD.md 5 written out directly: every record, no grid.
+dvec3 beam_reference(const std::vector<SpmVolumeRecord>& records, const SpmMedium& m, int medium, dvec3 o, dvec3 d,
+                     double t0, double t1, double r, int kernel, int estimator) {
+  dvec3 sum(0.0);
+  for (const auto& rec : records) {
+    if (rec.medium != medium) continue;
+    const dvec3 x = v3(rec.position);
+    const double t = glm::dot(x - o, d);
+    if (t < t0 || t > t1) continue;
+    const double d2 = glm::dot(x - (o + t * d), x - (o + t * d));
+    if (d2 >= r * r) continue;
+    if (estimator == 1) {
+      sum += v3(rec.flux);
+      continue;
+    }
+    const double g = m.phase == SPM_PHASE_HG ? m.g : 0.0;
+    for (int c = 0; c < 3; ++c) {
+      sum[c] += kernel_2d(kernel, d2, r * r) * std::exp(-m.sigma_t[c] * (t - t0)) *
+                phase_hg(-glm::dot(v3(rec.direction), d), g) * rec.flux[c] * m.albedo[c];
+    }
+  }
+  return estimator == 1 ? sum / (kPi * r * r * (t1 - t0)) : sum;
+}
+
+struct Uploaded {
+  cl::Buffer info, start, items, records;
+};
+
+template <class Record>
+Uploaded upload(spm::Device& dev, const std::vector<Record>& records, float radius) {
+  std::vector<glm::vec3> centres;
+  for (const auto& r : records) centres.emplace_back(r.position[0], r.position[1], r.position[2]);
+  const spm::SphereGrid grid = spm::build_sphere_grid(centres, radius);
+  return {dev.upload(std::vector<SpmGridInfo>{grid.info}), dev.upload(grid.cell_start), dev.upload(grid.items),
+          dev.upload(records)};
+}
+
+class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int>> {};
+
+TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
+  const auto [kernel, estimator] = GetParam();
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<float> pos(-20.0f, 20.0f), flux(0.0f, 2.0f), unit(-1.0f, 1.0f);
+  SpmMedium medium{};
+  medium.sigma_t[0] = 0.02f;
+  medium.sigma_t[1] = 0.05f;
+  medium.sigma_t[2] = 0.1f;
+  medium.albedo[0] = 0.9f;
+  medium.albedo[1] = 0.5f;
+  medium.albedo[2] = 0.3f;
+  medium.phase = SPM_PHASE_HG;
+  medium.g = 0.4f;
+  std::vector<SpmVolumeRecord> records(20000);
+  for (auto& r : records) {
+    for (int c = 0; c < 3; ++c) {
+      r.position[c] = pos(rng);
+      r.flux[c] = flux(rng);
+    }
+    const glm::vec3 d = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)) + glm::vec3(1e-3f));
+    for (int c = 0; c < 3; ++c) r.direction[c] = d[c];
+    r.medium = rng() % 8 == 0 ? 1 : 0;  // a few records of another medium must be ignored
+  }
+  const float radius = 0.8f;  // small against the box: long rays cross many cells
+  auto& dev = spm::test::device();
+  const Uploaded u = upload(dev, records, radius);
+  const cl::Buffer media = dev.upload(std::vector<SpmMedium>{medium, medium});
+  const int n = 500;
+  std::vector<cl_float4> origins(n), dirs(n);
+  for (int i = 0; i < n; ++i) {
+    const glm::vec3 o(pos(rng), pos(rng), pos(rng));
+    glm::vec3 d = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)) + glm::vec3(1e-3f));
+    if (i % 10 == 0) d = glm::vec3(1.0f, 0.0f, 0.0f);  // axis-aligned rays, along cell faces too
+    const float t0 = 0.25f * std::abs(pos(rng)), t1 = t0 + 5.0f + 2.0f * std::abs(pos(rng));
+    origins[i] = {{o.x, o.y, o.z, t0}};
+    dirs[i] = {{d.x, d.y, d.z, t1}};
+  }
+  const cl::Buffer ob = dev.upload(origins), db = dev.upload(dirs);
+  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
+  spm::set_args(k, u.info, u.start, u.items, u.records, media, ob, db, out, cl_uint(n), cl_int(0), radius,
+                cl_uint(kernel), cl_uint(estimator));
+  dev.launch("beam_test", k, n);
+  const auto got = dev.download<cl_float4>(out, n);
+  int nonzero = 0;
+  for (int i = 0; i < n; ++i) {
+    const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
+    const dvec3 d(dirs[i].s[0], dirs[i].s[1], dirs[i].s[2]);
+    const dvec3 ref = beam_reference(records, medium, 0, o, d, origins[i].s[3], dirs[i].s[3], radius, kernel, estimator);
+    if (ref.x > 0) ++nonzero;
+    for (int c = 0; c < 3; ++c) {
+      // Float rounding (Epanechnikov's 1 - d^2/r^2 near the edge) stays well
+      // under 1e-4 of the sum; a record counted twice or missed changes it by
+      // a whole term, about a tenth of it with the uniform kernel here
+      // (some 12 records lie within r of a ray).
+      EXPECT_NEAR(got[i].s[c], ref[c], 1e-4 * std::abs(ref[c]) + 1e-9) << "ray " << i << " channel " << c;
+    }
+  }
+  EXPECT_GT(nonzero, n / 2);
+}
+
+INSTANTIATE_TEST_SUITE_P(KernelsAndEstimators, BeamEstimate,
+                         ::testing::Combine(::testing::Values(0, 1), ::testing::Values(0, 1)));
+
+TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  // Records on the floor (y = 0) and on a wall (x = 0), facing into the
+  // positive octant; some flagged as direct light.
+  std::vector<SpmSurfaceRecord> records(30000);
+  for (auto& r : records) {
+    const bool floor = u(rng) < 0.5f;
+    const float a = 20 * u(rng), b = 20 * u(rng);
+    r.position[0] = floor ? a : 0.0f;
+    r.position[1] = floor ? 0.0f : a;
+    r.position[2] = b;
+    r.normal[0] = floor ? 0.0f : 1.0f;
+    r.normal[1] = floor ? 1.0f : 0.0f;
+    for (int c = 0; c < 3; ++c) r.flux[c] = u(rng);
+    r.flags = u(rng) < 0.3f ? 0u : SPM_RECORD_HAD_EVENT;
+  }
+  const float radius = 1.0f;
+  auto& dev = spm::test::device();
+  const Uploaded up = upload(dev, records, radius);
+  const int n = 400;
+  std::vector<cl_float4> points(n), normals(n);
+  for (int i = 0; i < n; ++i) {
+    const bool floor = i % 2 == 0;
+    const float a = 20 * u(rng), b = 20 * u(rng);
+    points[i] = floor ? cl_float4{{a, 0.0f, b, 0.0f}} : cl_float4{{0.0f, a, b, 0.0f}};
+    normals[i] = floor ? cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}} : cl_float4{{1.0f, 0.0f, 0.0f, 0.0f}};
+  }
+  const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
+  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
+  for (const int kernel : {0, 1}) {
+    for (const cl_uint skip : {0u, 1u}) {
+      spm::set_args(k, up.info, up.start, up.items, up.records, pb, nb, out, cl_uint(n), radius, cl_uint(kernel), skip);
+      dev.launch("surface_test", k, n);
+      const auto got = dev.download<cl_float4>(out, n);
+      for (int i = 0; i < n; ++i) {
+        const dvec3 x(points[i].s[0], points[i].s[1], points[i].s[2]);
+        const dvec3 nq(normals[i].s[0], normals[i].s[1], normals[i].s[2]);
+        dvec3 ref(0.0);
+        for (const auto& r : records) {
+          if (skip && !(r.flags & SPM_RECORD_HAD_EVENT)) continue;
+          if (glm::dot(v3(r.normal), nq) <= 0) continue;
+          const dvec3 off = v3(r.position) - x;
+          const double h = glm::dot(off, nq), d3 = glm::dot(off, off);
+          if (d3 >= radius * radius || std::abs(h) > 0.1 * radius) continue;
+          ref += kernel_2d(kernel, d3 - h * h, radius * radius) * v3(r.flux);
+        }
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[i].s[c], ref[c], 1e-5 * ref[c] + 1e-9) << i;
+      }
+    }
+  }
+}
+
+TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
+  // N photons of flux phi spread uniformly over an A x A square: the estimate
+  // of the flux density is N phi / A^2 within its standard error, which for a
+  // uniform kernel is the Poisson error sqrt(k) / k of the k photons in the disk.
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const float side = 100.0f, radius = 2.0f, phi = 0.01f;
+  const int photons = 400000;
+  std::vector<SpmSurfaceRecord> records(photons);
+  for (auto& r : records) {
+    r.position[0] = side * u(rng);
+    r.position[2] = side * u(rng);
+    r.normal[1] = 1.0f;
+    r.flux[0] = r.flux[1] = r.flux[2] = phi;
+    r.flags = SPM_RECORD_HAD_EVENT;
+  }
+  auto& dev = spm::test::device();
+  const Uploaded up = upload(dev, records, radius);
+  const int n = 200;
+  std::vector<cl_float4> points(n), normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
+  for (auto& p : points) p = {{radius + (side - 2 * radius) * u(rng), 0.0f, radius + (side - 2 * radius) * u(rng), 0}};
+  const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
+  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
+  spm::set_args(k, up.info, up.start, up.items, up.records, pb, nb, out, cl_uint(n), radius, cl_uint(0), cl_uint(1));
+  dev.launch("surface_test", k, n);
+  const auto got = dev.download<cl_float4>(out, n);
+  std::vector<double> estimates;
+  for (const auto& g : got) estimates.push_back(g.s[0]);
+  const double expected = photons * phi / (side * side);
+  const auto m = spm::test::mean_and_error(estimates);
+  const double in_disk = photons * kPi * radius * radius / (side * side);  // ~503 photons
+  EXPECT_NEAR(m.mean, expected, 4 * m.error);
+  // The spread between query points is the Poisson error of one disk.
+  EXPECT_NEAR(m.error * std::sqrt(double(n)), expected / std::sqrt(in_disk), 0.25 * expected / std::sqrt(in_disk));
+}
+
+double rel_mse(const spm::Image& a, const spm::Image& ref) {
+  double sum = 0.0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) {
+    const double d = a.rgb[i] - ref.rgb[i];
+    sum += d * d / (ref.rgb[i] * ref.rgb[i] + 1e-2);
+  }
+  return sum / a.rgb.size();
+}
+
+TEST(Progressive, RelativeErrorFallsWithPasses) {
+  // METHOD.md 6: independent passes with shrinking radii converge. The
+  // relMSE of N passes against an independent 16 N-pass render (another seed)
+  // falls as N grows.
+  auto scene = spm::load_scene(SPM_SCENES_DIR "/cornell_fog.xml", {{"res", "24"}, {"spp", "2"}});
+  scene.integrator.streams = 2000;
+  scene.integrator.associated = 10;
+  auto& dev = spm::test::device();
+  auto render = [&](int passes, uint32_t seed) {
+    spm::RenderSettings s;
+    s.passes = passes;
+    s.seed = seed;
+    return spm::render(scene, s, dev);
+  };
+  const double e1 = rel_mse(render(1, 1), render(16, 2));
+  const double e4 = rel_mse(render(4, 3), render(64, 4));
+  EXPECT_LT(e4, 0.5 * e1) << "relMSE " << e1 << " (1 pass) vs " << e4 << " (4 passes)";
+}
+
+TEST(Progressive, RadiusScheduleFollowsKnausZwicker) {
+  EXPECT_FLOAT_EQ(spm::pass_radius(2.5f, 2.0f / 3, 0), 2.5f);
+  EXPECT_NEAR(spm::pass_radius(2.5f, 2.0f / 3, 1), 2.5 * std::sqrt((1 + 2.0 / 3) / 2), 1e-6);
+  // r_k^2 falls like k^(alpha - 1): the ratio over passes 100 -> 1000.
+  const double r100 = spm::pass_radius(1.0f, 0.5f, 100), r1000 = spm::pass_radius(1.0f, 0.5f, 1000);
+  EXPECT_NEAR(r1000 * r1000 / (r100 * r100), std::pow(10.0, -0.5), 0.01);
+}
+
+}  // namespace
