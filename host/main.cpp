@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -11,6 +12,7 @@
 
 #include "device/device.h"
 #include "film/image_io.h"
+#include "profile/profile.h"
 #include "render/render.h"
 #include "scene/loader.h"
 #include "util/errors.h"
@@ -41,6 +43,7 @@ struct RenderArgs {
   std::string scene, output, png, device, res, kernel_dir;
   std::vector<std::string> defines;
   spm::RenderSettings settings;
+  bool profile = false;
   // Overrides of the scene's <integrator type="spm"> properties.
   std::optional<int> streams, associated, bounces;
   std::optional<float> width, march_step, radius, alpha, time;
@@ -112,6 +115,15 @@ int cmd_render(const RenderArgs& a) {
   const std::string png =
       a.png.empty() ? std::filesystem::path(a.output).replace_extension(".png").string() : a.png;
   spm::write_png(png, image);
+  if (a.profile) {
+    spm::print_kernel_table(std::cout, spm::kernel_times(device.launches()));
+    std::printf("stages: propagate %.3f s, grid build %.3f s, gather %.3f s; passes %.3f s in all\n",
+                stats.propagate_seconds, stats.grid_seconds, stats.gather_seconds, stats.seconds);
+    std::printf("host: BVH %.3f s, kernel builds %.3f s\n", stats.bvh_seconds, stats.build_seconds);
+    std::printf("gather: %llu camera samples, %.1f sphere tests per sample\n",
+                static_cast<unsigned long long>(stats.camera_samples),
+                double(stats.sphere_tests) / std::max<uint64_t>(1, stats.camera_samples));
+  }
   std::fprintf(stderr, "spm: wrote %s and %s (%d passes in %.2f s; kernel build %.2f s, BVH %.3f s)\n",
                a.output.c_str(), png.c_str(), stats.passes, stats.seconds, stats.build_seconds, stats.bvh_seconds);
   return 0;
@@ -162,6 +174,7 @@ int main(int argc, char** argv) {
                      "Direct light on surfaces: 'nee' (default; shadow rays with transmittance) or 'photons' "
                      "(photon map only, the paper's look)")
       ->check(CLI::IsMember({"nee", "photons"}));
+  render->add_flag("--profile", r.profile, "Print per-kernel device times and host stages at the end");
   render->add_option("--dump-maps", r.settings.dump_maps,
                      "Write the first pass's maps as PREFIX_volume.ply and PREFIX_surface.ply (position, flux)");
   render->add_option("--kernel-dir", r.kernel_dir,

@@ -133,8 +133,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
                          __global uint* tests_out, uint spp, uint max_depth, uint seed, uint pass, float radius,
                          uint kernel_type, uint estimator, uint direct, const __global SpmGridInfo* volume_info,
                          const __global uint* volume_start, const __global uint* volume_items,
-                         const __global SpmVolumeRecord* volume, const __global SpmGridInfo* surface_info,
-                         const __global uint* surface_start, const __global uint* surface_items,
+                         const __global float4* volume_pos, const __global SpmVolumeRecord* volume,
+                         const __global SpmGridInfo* surface_info, const __global uint* surface_start,
+                         const __global uint* surface_items, const __global float4* surface_pos,
                          const __global SpmSurfaceRecord* surface) {
   const uint pixel = get_global_id(0);
   if (pixel >= camera->width * camera->height) return;
@@ -143,10 +144,12 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
   maps.volume_grid.info = volume_info;
   maps.volume_grid.cell_start = volume_start;
   maps.volume_grid.items = volume_items;
+  maps.volume_grid.item_pos = volume_pos;
   maps.volume = volume;
   maps.surface_grid.info = surface_info;
   maps.surface_grid.cell_start = surface_start;
   maps.surface_grid.items = surface_items;
+  maps.surface_grid.item_pos = surface_pos;
   maps.surface = surface;
   maps.radius = radius;
   maps.kernel_type = kernel_type;

@@ -1,5 +1,5 @@
-// Direct lighting against closed forms: a small square light above a large
-// diffuse plane. The radiance of the point below the light is albedo / pi
+// Direct lighting against closed forms: a small black square light above a
+// large diffuse plane (black, so that no light bounces between the two). The radiance of the point below the light is albedo / pi
 // times the irradiance; through an absorbing medium every light path and the
 // camera ray are attenuated by exp(-sigma_t d) (paper eq. 2).
 #include <gtest/gtest.h>
@@ -78,6 +78,7 @@ std::string scene_xml(double sigma) {
   <shape type="rectangle">
     <transform name="to_world"><scale value=")"
     << kSide / 2 << R"("/><rotate x="1" angle="90"/><translate y=")" << kHeight << R"("/></transform>
+    <bsdf type="diffuse"><float name="reflectance" value="0"/></bsdf>
     <emitter type="area"><rgb name="radiance" value=")"
     << kRadiance << R"("/></emitter>)" << ext << R"(
   </shape>

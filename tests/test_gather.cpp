@@ -8,6 +8,7 @@
 
 #include "render/render.h"
 #include "scene/loader.h"
+#include "spm/gather.h"
 #include "spm/sphere_grid.h"
 #include "stats.h"
 #include "test_support.h"
@@ -53,7 +54,7 @@ dvec3 beam_reference(const std::vector<SpmVolumeRecord>& records, const SpmMediu
 }
 
 struct Uploaded {
-  cl::Buffer info, start, items, records;
+  cl::Buffer info, start, items, item_pos, records;
 };
 
 template <class Record>
@@ -62,7 +63,7 @@ Uploaded upload(spm::Device& dev, const std::vector<Record>& records, float radi
   for (const auto& r : records) centres.emplace_back(r.position[0], r.position[1], r.position[2]);
   const spm::SphereGrid grid = spm::build_sphere_grid(centres, radius);
   return {dev.upload(std::vector<SpmGridInfo>{grid.info}), dev.upload(grid.cell_start), dev.upload(grid.items),
-          dev.upload(records)};
+          dev.upload(spm::item_positions(grid, centres)), dev.upload(records)};
 }
 
 class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int>> {};
@@ -107,7 +108,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   const cl::Buffer ob = dev.upload(origins), db = dev.upload(dirs);
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
-  spm::set_args(k, u.info, u.start, u.items, u.records, media, ob, db, out, cl_uint(n), cl_int(0), radius,
+  spm::set_args(k, u.info, u.start, u.items, u.item_pos, u.records, media, ob, db, out, cl_uint(n), cl_int(0), radius,
                 cl_uint(kernel), cl_uint(estimator));
   dev.launch("beam_test", k, n);
   const auto got = dev.download<cl_float4>(out, n);
@@ -164,7 +165,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
   for (const int kernel : {0, 1}) {
     for (const cl_uint skip : {0u, 1u}) {
-      spm::set_args(k, up.info, up.start, up.items, up.records, pb, nb, out, cl_uint(n), radius, cl_uint(kernel), skip);
+      spm::set_args(k, up.info, up.start, up.items, up.item_pos, up.records, pb, nb, out, cl_uint(n), radius, cl_uint(kernel), skip);
       dev.launch("surface_test", k, n);
       const auto got = dev.download<cl_float4>(out, n);
       for (int i = 0; i < n; ++i) {
@@ -209,7 +210,7 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
-  spm::set_args(k, up.info, up.start, up.items, up.records, pb, nb, out, cl_uint(n), radius, cl_uint(0), cl_uint(1));
+  spm::set_args(k, up.info, up.start, up.items, up.item_pos, up.records, pb, nb, out, cl_uint(n), radius, cl_uint(0), cl_uint(1));
   dev.launch("surface_test", k, n);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<double> estimates;

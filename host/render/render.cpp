@@ -90,7 +90,7 @@ Image render(const Scene& scene, const RenderSettings& settings, Device& device,
   // and SPM_DIRECT_* (kernels/spm_gather.cl).
   const cl_uint kernel = code_of(in.kernel, {"uniform", "epanechnikov"});
   const cl_uint estimator = code_of(in.estimator, {"bre", "paper"});
-  const cl_uint direct = code_of(in.direct, {"nee", "photons"});
+  const cl_uint direct = code_of(in.direct, {"nee", "photons"});  // nee: 0
 
   // Passes are summed in pass order in double precision, so the image does not
   // depend on which device rendered which pass (METHOD.md 6).
@@ -105,14 +105,21 @@ Image render(const Scene& scene, const RenderSettings& settings, Device& device,
     const float radius = pass_radius(in.radius, in.alpha, pass);
     StreamSettings ss = stream_settings(scene, s, pass);
     ss.width = in.width * radius / in.radius;
+    auto t0 = std::chrono::steady_clock::now();
     const PhotonMaps maps = trace_streams(device, gpu, ss);
+    auto t1 = std::chrono::steady_clock::now();
+    st.propagate_seconds += std::chrono::duration<double>(t1 - t0).count();
     if (pass == 0 && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
-    const MapGrids grids(device, maps, radius);
+    const MapGrids grids(device, maps, radius, direct == 0);
     st.grid_seconds += grids.build_seconds();
+    t0 = std::chrono::steady_clock::now();
     set_args(gather, gpu, gpu.camera(), film, tests, cl_uint(s.spp), cl_uint(s.max_depth), cl_uint(s.seed),
              cl_uint(pass), radius, kernel, estimator, direct, grids);
     device.launch("gather", gather, pixels);
     const auto pass_film = device.download<cl_float4>(film, pixels);
+    for (cl_uint t : device.download<cl_uint>(tests, pixels)) st.sphere_tests += t;
+    st.gather_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    st.camera_samples += pixels * s.spp;
     for (size_t i = 0; i < pixels; ++i) {
       for (int c = 0; c < 3; ++c) sum[3 * i + c] += pass_film[i].s[c];
     }

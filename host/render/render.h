@@ -29,7 +29,11 @@ struct RenderStats {
   double seconds = 0.0;         // wall clock of the passes
   double bvh_seconds = 0.0;
   double build_seconds = 0.0;   // kernel program builds
-  double grid_seconds = 0.0;    // sphere grid builds, all passes
+  double propagate_seconds = 0.0;  // stream propagation incl. map downloads and sorting, all passes
+  double grid_seconds = 0.0;       // sphere grid builds on the host, all passes
+  double gather_seconds = 0.0;     // grid uploads, gather kernel and film download, all passes
+  uint64_t camera_samples = 0;  // gather samples, all passes
+  uint64_t sphere_tests = 0;    // volume records examined by the beam estimates
 };
 
 // Called after each finished pass with (passes done, passes in total), the

@@ -45,10 +45,8 @@ inline float3 beam_estimate(SpmGrid grid, const __global SpmVolumeRecord* record
   do {
     const uint c = grid_cell_index(grid.info, walk.cell);
     for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
-      const __global SpmVolumeRecord* rec = &records[grid.items[k]];
       ++*tests;
-      if (rec->medium != m) continue;
-      const float3 x = load3(rec->position);
+      const float3 x = grid.item_pos[k].xyz;
       const float t = dot(x - o, d);
       if (t < t0 || t > t1) continue;
       const float3 closest = o + t * d;
@@ -57,6 +55,8 @@ inline float3 beam_estimate(SpmGrid grid, const __global SpmVolumeRecord* record
       if (d2 >= r2) continue;
       const int3 home = grid_cell_of(grid.info, closest);
       if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
+      const __global SpmVolumeRecord* rec = &records[grid.items[k]];
+      if (rec->medium != m) continue;
       const float3 flux = load3(rec->flux);
       if (estimator == SPM_ESTIMATOR_PAPER) {
         sum += flux;
@@ -81,13 +81,13 @@ inline float3 surface_estimate(SpmGrid grid, const __global SpmSurfaceRecord* re
   const float r2 = r * r;
   const uint c = grid_cell_index(grid.info, grid_cell_of(grid.info, x));
   for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
-    const __global SpmSurfaceRecord* rec = &records[grid.items[k]];
-    if (skip_direct && !(rec->flags & SPM_RECORD_HAD_EVENT)) continue;
-    if (dot(load3(rec->normal), n) <= 0.0f) continue;
-    const float3 off = load3(rec->position) - x;
+    const float3 off = grid.item_pos[k].xyz - x;
     const float h = dot(off, n);
     const float d3 = dot(off, off);
     if (d3 >= r2 || fabs(h) > SPM_DISK_THICKNESS * r) continue;
+    const __global SpmSurfaceRecord* rec = &records[grid.items[k]];
+    if (skip_direct && !(rec->flags & SPM_RECORD_HAD_EVENT)) continue;
+    if (dot(load3(rec->normal), n) <= 0.0f) continue;
     sum += kernel_2d(kernel_type, d3 - h * h, r2) * load3(rec->flux);
   }
   return sum;

@@ -10,6 +10,9 @@ typedef struct SpmGrid {
   const __global SpmGridInfo* info;
   const __global uint* cell_start;
   const __global uint* items;
+  /* The listed records' positions in item order: a query streams through its
+   * cells' positions and reads a whole record only when it is in range. */
+  const __global float4* item_pos;
 } SpmGrid;
 
 /* Cell of point p, clamped to the grid; the same float arithmetic as the
