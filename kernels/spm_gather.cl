@@ -21,9 +21,10 @@
 /* What the estimates need, bundled for the path loop. */
 typedef struct SpmMaps {
   SpmGrid volume_grid;
+  const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
   SpmGrid surface_grid;
-  const __global SpmSurfaceRecord* surface;
+  const __global float4* surface_flux;
   float radius;
   uint kernel_type;
   uint estimator;
@@ -84,8 +85,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const bool hit = scene_trace(s, o + tmin * d, d, tmax - tmin, &h);
     const float t_end = hit ? h.t + tmin : tmax;
     if (medium >= 0) {
-      L += beta * beam_estimate(maps->volume_grid, maps->volume, s->media, medium, o, d, tmin, t_end, maps->radius,
-                                maps->kernel_type, maps->estimator, tests);
+      L += beta * beam_estimate(maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
+                                t_end, maps->radius, maps->kernel_type, maps->estimator, tests);
     }
     /* Escaping: outside a medium there is no environment light in the
      * supported subset, inside one the light has all been gathered. */
@@ -111,8 +112,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       if (reflects_from(m, &surf, d)) {
         const bool nee = maps->direct == SPM_DIRECT_NEE;
         if (nee) L += beta * direct_diffuse(s, &surf, m, d, rng);
-        const float3 flux = surface_estimate(maps->surface_grid, maps->surface, surf.p, facing_normal(&surf, d),
-                                             maps->radius, maps->kernel_type, nee);
+        const float3 flux = surface_estimate(maps->surface_grid, maps->surface_flux, surf.p, facing_normal(&surf, d),
+                                             maps->radius, maps->kernel_type);
         L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
       }
       break;
@@ -132,25 +133,23 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
 __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global float4* film,
                          __global uint* tests_out, uint spp, uint max_depth, uint seed, uint pass, float radius,
                          uint kernel_type, uint estimator, uint direct, const __global SpmGridInfo* volume_info,
-                         const __global uint* volume_start, const __global uint* volume_items,
-                         const __global float4* volume_pos, const __global SpmVolumeRecord* volume,
+                         const __global uint* volume_start, const __global float4* volume_pos,
+                         const __global uint* volume_items, const __global SpmVolumeRecord* volume,
                          const __global SpmGridInfo* surface_info, const __global uint* surface_start,
-                         const __global uint* surface_items, const __global float4* surface_pos,
-                         const __global SpmSurfaceRecord* surface) {
+                         const __global float4* surface_pos, const __global float4* surface_flux) {
   const uint pixel = get_global_id(0);
   if (pixel >= camera->width * camera->height) return;
   const SpmScene s = SPM_SCENE;
   SpmMaps maps;
   maps.volume_grid.info = volume_info;
   maps.volume_grid.cell_start = volume_start;
-  maps.volume_grid.items = volume_items;
   maps.volume_grid.item_pos = volume_pos;
+  maps.volume_items = volume_items;
   maps.volume = volume;
   maps.surface_grid.info = surface_info;
   maps.surface_grid.cell_start = surface_start;
-  maps.surface_grid.items = surface_items;
   maps.surface_grid.item_pos = surface_pos;
-  maps.surface = surface;
+  maps.surface_flux = surface_flux;
   maps.radius = radius;
   maps.kernel_type = kernel_type;
   maps.estimator = estimator;

@@ -374,7 +374,7 @@ TEST(Streams, SmallMemoryBudgetGivesTheSameMapsInMoreBatches) {
 
 TEST(Streams, FullMapBuffersAreFlushedNotDropped) {
   // In a closed bright box every event deposits: the surface buffer (room for
-  // two iterations) fills within a batch and must be downloaded mid-batch.
+  // one iteration) fills within a batch and must be downloaded mid-batch.
   expect_same_maps_in_batches(diffuse_box("0.9"), 20, 1);
 }
 

@@ -1,6 +1,8 @@
 #include "spm/gather.h"
 
 #include <chrono>
+#include <cmath>
+#include <cstring>
 
 namespace spm {
 
@@ -14,9 +16,48 @@ std::vector<glm::vec3> positions(const std::vector<Record>& records) {
   return out;
 }
 
-// With next-event estimation the gather skips records of streams that had no
-// event before (METHOD.md 5): leaving them out of the grid saves the tests.
-std::vector<SpmSurfaceRecord> used_surface(const std::vector<SpmSurfaceRecord>& records, bool skip_direct) {
+// Three 10-bit components 512 + round(511 n) (kernels/lib/estimate.h).
+float pack_normal(const float* n) {
+  uint32_t bits = 0;
+  for (int k = 0; k < 3; ++k) {
+    const float q = 512.0f + std::round(511.0f * std::fmax(-1.0f, std::fmin(1.0f, n[k])));
+    bits |= static_cast<uint32_t>(q) << (10 * k);
+  }
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+
+}  // namespace
+
+std::vector<cl_float4> volume_item_positions(const SphereGrid& grid, const std::vector<SpmVolumeRecord>& records) {
+  std::vector<cl_float4> out(grid.items.size());
+  for (size_t k = 0; k < out.size(); ++k) {
+    const auto& r = records[grid.items[k]];
+    out[k] = {{r.position[0], r.position[1], r.position[2], 0.0f}};
+  }
+  return out;
+}
+
+std::vector<cl_float4> surface_item_positions(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
+  std::vector<cl_float4> out(grid.items.size());
+  for (size_t k = 0; k < out.size(); ++k) {
+    const auto& r = records[grid.items[k]];
+    out[k] = {{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
+  }
+  return out;
+}
+
+std::vector<cl_float4> surface_item_flux(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
+  std::vector<cl_float4> out(grid.items.size());
+  for (size_t k = 0; k < out.size(); ++k) {
+    const auto& r = records[grid.items[k]];
+    out[k] = {{r.flux[0], r.flux[1], r.flux[2], 0.0f}};
+  }
+  return out;
+}
+
+std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct) {
   if (!skip_direct) return records;
   std::vector<SpmSurfaceRecord> out;
   for (const auto& r : records) {
@@ -25,44 +66,29 @@ std::vector<SpmSurfaceRecord> used_surface(const std::vector<SpmSurfaceRecord>& 
   return out;
 }
 
-}  // namespace
-
-MapGrids::MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct)
-    : MapGrids(device, maps.volume, used_surface(maps.surface, skip_direct), radius) {}
-
-std::vector<cl_float4> item_positions(const SphereGrid& grid, const std::vector<glm::vec3>& centres) {
-  std::vector<cl_float4> out(grid.items.size());
-  for (size_t k = 0; k < grid.items.size(); ++k) {
-    const glm::vec3& c = centres[grid.items[k]];
-    out[k] = {{c.x, c.y, c.z, 0.0f}};
-  }
-  return out;
-}
-
-MapGrids::MapGrids(Device& device, const std::vector<SpmVolumeRecord>& volume,
-                   const std::vector<SpmSurfaceRecord>& surface, float radius) {
+MapGrids::MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct) {
   const auto start = std::chrono::steady_clock::now();
-  const std::vector<glm::vec3> volume_centres = positions(volume), surface_centres = positions(surface);
-  volume_grid_ = build_sphere_grid(volume_centres, radius);
-  surface_grid_ = build_sphere_grid(surface_centres, radius);
-  const auto volume_pos = item_positions(volume_grid_, volume_centres);
-  const auto surface_pos = item_positions(surface_grid_, surface_centres);
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct);
+  const SphereGrid volume_grid = build_sphere_grid(positions(maps.volume), radius);
+  const SphereGrid surface_grid = build_sphere_grid(positions(surface), radius);
+  const auto volume_pos = volume_item_positions(volume_grid, maps.volume);
+  const auto surface_pos = surface_item_positions(surface_grid, surface);
+  const auto surface_flux = surface_item_flux(surface_grid, surface);
   build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  volume_info_ = device.upload(std::vector<SpmGridInfo>{volume_grid_.info});
-  volume_start_ = device.upload(volume_grid_.cell_start);
-  volume_items_ = device.upload(volume_grid_.items);
+  volume_info_ = device.upload(std::vector<SpmGridInfo>{volume_grid.info});
+  volume_start_ = device.upload(volume_grid.cell_start);
   volume_pos_ = device.upload(volume_pos);
-  volume_ = device.upload(volume);
-  surface_info_ = device.upload(std::vector<SpmGridInfo>{surface_grid_.info});
-  surface_start_ = device.upload(surface_grid_.cell_start);
-  surface_items_ = device.upload(surface_grid_.items);
+  volume_items_ = device.upload(volume_grid.items);
+  volume_ = device.upload(maps.volume);
+  surface_info_ = device.upload(std::vector<SpmGridInfo>{surface_grid.info});
+  surface_start_ = device.upload(surface_grid.cell_start);
   surface_pos_ = device.upload(surface_pos);
-  surface_ = device.upload(surface);
+  surface_flux_ = device.upload(surface_flux);
 }
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
-  for (const cl::Buffer* b : {&volume_info_, &volume_start_, &volume_items_, &volume_pos_, &volume_, &surface_info_,
-                              &surface_start_, &surface_items_, &surface_pos_, &surface_}) {
+  for (const cl::Buffer* b : {&volume_info_, &volume_start_, &volume_pos_, &volume_items_, &volume_, &surface_info_,
+                              &surface_start_, &surface_pos_, &surface_flux_}) {
     k.setArg(i++, *b);
   }
   return i;

@@ -1,37 +1,39 @@
 // The maps as the gather kernel reads them: each map with its sphere grid
-// (host/spm/sphere_grid.h), uploaded as built and bound after the gather's own
-// arguments in the order of kernels/spm_gather.cl.
+// (host/spm/sphere_grid.h) and per-item arrays in cell order, bound after the
+// gather's own arguments in the order of kernels/spm_gather.cl.
 #pragma once
+
+#include <vector>
 
 #include "device/device.h"
 #include "spm/sphere_grid.h"
 #include "spm/streams.h"
 
-#include <vector>
-
 namespace spm {
 
-// The records' positions in the grid's item order (kernels/lib/grid.h).
-std::vector<cl_float4> item_positions(const SphereGrid& grid, const std::vector<glm::vec3>& centres);
+// Grid items of the volume map: the listed record's position (w unused).
+std::vector<cl_float4> volume_item_positions(const SphereGrid& grid, const std::vector<SpmVolumeRecord>& records);
+
+// Grid items of the surface map: position with the packed normal in w
+// (kernels/lib/estimate.h, unpack_normal), and the record's flux, so that the
+// surface estimate never reads the records themselves.
+std::vector<cl_float4> surface_item_positions(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records);
+std::vector<cl_float4> surface_item_flux(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records);
+
+// The surface records the gather uses: with next-event estimation
+// (`skip_direct`), not those of streams that had no event before (METHOD.md 5).
+std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct);
 
 class MapGrids {
  public:
-  // Builds both grids for search radius `radius`; `skip_direct` leaves out the
-  // surface records the gather would skip (next-event estimation's light).
   MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct);
 
   cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
   double build_seconds() const { return build_seconds_; }
-  const SphereGrid& volume_grid() const { return volume_grid_; }
-  const SphereGrid& surface_grid() const { return surface_grid_; }
 
  private:
-  MapGrids(Device& device, const std::vector<SpmVolumeRecord>& volume, const std::vector<SpmSurfaceRecord>& surface,
-           float radius);
-
-  SphereGrid volume_grid_, surface_grid_;
-  cl::Buffer volume_info_, volume_start_, volume_items_, volume_pos_, volume_;
-  cl::Buffer surface_info_, surface_start_, surface_items_, surface_pos_, surface_;
+  cl::Buffer volume_info_, volume_start_, volume_pos_, volume_items_, volume_;
+  cl::Buffer surface_info_, surface_start_, surface_pos_, surface_flux_;
   double build_seconds_ = 0.0;
 };
 

@@ -10,11 +10,11 @@ namespace spm {
 namespace {
 
 // Device memory of one stream slot: its state, two queue entries, its
-// associated photons' positions, and room for two iterations' worth of
+// associated photons' positions, and room for one iteration's worth of
 // surface records and eight volume records, so that flushes stay rare.
 size_t bytes_per_stream(uint32_t associated) {
   return StreamState::bytes_per_slot() + 2 * sizeof(cl_uint) + associated * sizeof(cl_float4) +
-         2 * associated * sizeof(SpmSurfaceRecord) + 8 * sizeof(SpmVolumeRecord);
+         associated * sizeof(SpmSurfaceRecord) + 8 * sizeof(SpmVolumeRecord);
 }
 
 uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
@@ -41,7 +41,7 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   if (settings_.associated > 65535) throw InputError("", "associated photons per stream must be at most 65535");
   capacity_ = batch_size(device.info(), settings_);
   volume_capacity_ = 8 * capacity_;
-  surface_capacity_ = 2 * capacity_ * settings_.associated;
+  surface_capacity_ = capacity_ * settings_.associated;
   auto& ctx = device.context();
   state_ = StreamState(ctx, capacity_);
   queue_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * capacity_);

@@ -33,9 +33,9 @@ inline float kernel_2d(uint kernel_type, float d2, float r2) {
  * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
  * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
  * *tests counts the records examined (the profile's sphere tests). */
-inline float3 beam_estimate(SpmGrid grid, const __global SpmVolumeRecord* records, const __global SpmMedium* media,
-                            int m, float3 o, float3 d, float t0, float t1, float r, uint kernel_type, uint estimator,
-                            uint* tests) {
+inline float3 beam_estimate(SpmGrid grid, const __global uint* items, const __global SpmVolumeRecord* records,
+                            const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
+                            uint kernel_type, uint estimator, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (grid.info->records == 0 || !grid_walk_begin(grid.info, o, d, t0, t1, &walk)) return sum;
@@ -55,7 +55,7 @@ inline float3 beam_estimate(SpmGrid grid, const __global SpmVolumeRecord* record
       if (d2 >= r2) continue;
       const int3 home = grid_cell_of(grid.info, closest);
       if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
-      const __global SpmVolumeRecord* rec = &records[grid.items[k]];
+      const __global SpmVolumeRecord* rec = &records[items[k]];
       if (rec->medium != m) continue;
       const float3 flux = load3(rec->flux);
       if (estimator == SPM_ESTIMATOR_PAPER) {
@@ -70,25 +70,33 @@ inline float3 beam_estimate(SpmGrid grid, const __global SpmVolumeRecord* record
   return sum * load3(media[m].albedo);
 }
 
+/* Surface record normals ride in item_pos.w as three 10-bit components
+ * q = 512 + round(511 n), which keep 0 exact: enough to tell the side a photon
+ * arrived on, and a normal at right angles to the query's stays out. */
+inline float3 unpack_normal(uint bits) {
+  const int3 q = (int3)((int)(bits & 1023u), (int)((bits >> 10) & 1023u), (int)((bits >> 20) & 1023u));
+  return convert_float3(q - 512) * (1.0f / 511.0f);
+}
+
 /* Photon flux density at x on a surface seen from the side of `n`: sum over
  * records in the disk of radius r around x in its tangent plane, arriving on
- * the same side, of K(d) phi. `skip_direct` drops records of streams that had
- * no event before (their light is next-event estimation's). */
-inline float3 surface_estimate(SpmGrid grid, const __global SpmSurfaceRecord* records, float3 x, float3 n, float r,
-                               uint kernel_type, bool skip_direct) {
+ * the same side, of K(d) phi. The grid holds only the records to use (with
+ * next-event estimation, not those of streams without an earlier event);
+ * item_flux[k] is the flux of item k's record. */
+inline float3 surface_estimate(SpmGrid grid, const __global float4* item_flux, float3 x, float3 n, float r,
+                               uint kernel_type) {
   float3 sum = (float3)(0.0f);
   if (grid.info->records == 0) return sum;
   const float r2 = r * r;
   const uint c = grid_cell_index(grid.info, grid_cell_of(grid.info, x));
   for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
-    const float3 off = grid.item_pos[k].xyz - x;
+    const float4 p = grid.item_pos[k];
+    const float3 off = p.xyz - x;
     const float h = dot(off, n);
     const float d3 = dot(off, off);
     if (d3 >= r2 || fabs(h) > SPM_DISK_THICKNESS * r) continue;
-    const __global SpmSurfaceRecord* rec = &records[grid.items[k]];
-    if (skip_direct && !(rec->flags & SPM_RECORD_HAD_EVENT)) continue;
-    if (dot(load3(rec->normal), n) <= 0.0f) continue;
-    sum += kernel_2d(kernel_type, d3 - h * h, r2) * load3(rec->flux);
+    if (dot(unpack_normal(as_uint(p.w)), n) <= 0.0f) continue;
+    sum += kernel_2d(kernel_type, d3 - h * h, r2) * item_flux[k].xyz;
   }
   return sum;
 }

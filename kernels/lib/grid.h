@@ -6,12 +6,12 @@
 #include "../spm_types.h"
 #include "math.h"
 
+/* A grid with its items in cell order: item k of cell c (cell_start[c] <= k <
+ * cell_start[c + 1]) carries the position of the record it lists, so a query
+ * streams through its cells' items and reads more only for records in range. */
 typedef struct SpmGrid {
   const __global SpmGridInfo* info;
   const __global uint* cell_start;
-  const __global uint* items;
-  /* The listed records' positions in item order: a query streams through its
-   * cells' positions and reads a whole record only when it is in range. */
   const __global float4* item_pos;
 } SpmGrid;
 
