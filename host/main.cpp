@@ -10,6 +10,7 @@
 #include <map>
 #include <optional>
 
+#include "bench/bench.h"
 #include "device/device.h"
 #include "film/image_io.h"
 #include "profile/profile.h"
@@ -181,6 +182,19 @@ int main(int argc, char** argv) {
                      "Load kernels from this directory instead of the embedded sources")
       ->check(CLI::ExistingDirectory);
 
+  spm::BenchOptions bench_options;
+  std::string bench_device;
+  auto* bench = app.add_subcommand(
+      "bench", "Time the paper's Fig. 3 configurations stage by stage: medians of --repeat one-pass renders");
+  bench->add_option("--scenes", bench_options.scenes_dir, "Directory holding cornell_fog.xml")
+      ->check(CLI::ExistingDirectory);
+  bench->add_option("--repeat", bench_options.repeat, "Timed repetitions after one warm-up")
+      ->check(CLI::PositiveNumber);
+  bench->add_option("--res", bench_options.resolution, "Square resolution")->check(CLI::Range(1, 16384));
+  bench->add_option("--spp", bench_options.spp, "Camera samples per pixel")->check(CLI::PositiveNumber);
+  bench->add_option("--csv", bench_options.csv, "Also write the table as CSV");
+  bench->add_option("--device", bench_device, "Device, as for render");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -195,6 +209,12 @@ int main(int argc, char** argv) {
   try {
     if (*devices) return cmd_devices();
     if (*render) return cmd_render(r);
+    if (*bench) {
+      spm::Device device(spm::select_device(bench_device), "");
+      std::cerr << "spm: bench on " << device.info().name << "\n";
+      spm::run_bench(device, bench_options);
+      return 0;
+    }
   } catch (const spm::InputError& e) {
     std::cerr << "spm: " << e.what() << "\n";
     return spm::kExitInput;
