@@ -3,6 +3,11 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <atomic>
+#include <csignal>
+#include <cstdlib>
+#include <memory>
+
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +19,7 @@
 #include "device/device.h"
 #include "film/image_io.h"
 #include "profile/profile.h"
+#include "util/text_file.h"
 #include "render/render.h"
 #include "scene/loader.h"
 #include "util/errors.h"
@@ -45,6 +51,8 @@ struct RenderArgs {
   std::vector<std::string> defines;
   spm::RenderSettings settings;
   bool profile = false;
+  std::string profile_json, trace;
+  std::optional<size_t> device_memory;
   // Overrides of the scene's <integrator type="spm"> properties.
   std::optional<int> streams, associated, bounces;
   std::optional<float> width, march_step, radius, alpha, time;
@@ -86,44 +94,108 @@ void parse_res(const std::string& res, spm::RenderSettings& s) {
   s.height = h;
 }
 
+// SIGINT during a render: the passes in flight finish, no new one starts, and
+// the image of the completed passes is written.
+std::atomic<bool> g_interrupted{false};
+
+extern "C" void on_sigint(int) { g_interrupted = true; }
+
+size_t device_memory_budget(const std::optional<size_t>& flag) {
+  if (flag) return *flag;
+  const char* env = std::getenv("SPM_DEVICE_MEMORY");
+  if (!env || !*env) return 0;
+  char* end = nullptr;
+  const unsigned long long v = std::strtoull(env, &end, 10);
+  if (*end != 0 || v == 0) throw spm::InputError("SPM_DEVICE_MEMORY", std::string("expected bytes, got '") + env + "'");
+  return static_cast<size_t>(v);
+}
+
 int cmd_render(const RenderArgs& a) {
+  spm::Profiler profiler(!a.trace.empty());
+  double t = profiler.now();
   spm::RenderSettings settings = a.settings;
   parse_res(a.res, settings);
   spm::Scene scene = spm::load_scene(a.scene, parse_defines(a.defines));
   apply_overrides(a, scene.integrator);
   settings = spm::resolve_settings(scene, settings);
-  const spm::DeviceInfo info = spm::select_device(a.device);
-  spm::Device device(info, a.kernel_dir);
+  settings.memory_budget = device_memory_budget(a.device_memory);
+  profiler.stage("scene_load", t, profiler.now());
+
+  std::vector<std::unique_ptr<spm::Device>> owned;
+  std::vector<spm::Device*> devices;
+  std::string names;
+  for (const auto& info : spm::select_devices(a.device)) {
+    owned.push_back(std::make_unique<spm::Device>(info, a.kernel_dir));
+    devices.push_back(owned.back().get());
+    names += (names.empty() ? "" : ", ") + info.name;
+  }
 
   const bool tty = ::isatty(STDERR_FILENO);
   std::cerr << "spm: rendering " << a.scene << " at " << settings.width << "x" << settings.height << ", "
-            << settings.passes << " pass(es) x " << settings.spp << " spp on " << info.name << "\n";
+            << (scene.integrator.time > 0 && a.settings.passes == 0 ? "for " + std::to_string(scene.integrator.time) + " s"
+                                                                     : std::to_string(settings.passes) + " pass(es)")
+            << " x " << settings.spp << " spp on " << names << "\n";
   const auto progress = [tty](int done, int total) {
     if (total == 0) {
       std::cerr << (tty ? "\r" : "") << "spm: pass " << done << " done" << (tty ? "" : "\n") << std::flush;
     } else if (tty) {
       const int width = 40, filled = width * done / total;
       std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] " << done << "/"
-                << total << (done == total ? "\n" : "") << std::flush;
+                << total << std::flush;
     } else {
       std::cerr << "spm: pass " << done << "/" << total << " done\n";
     }
   };
+  settings.stop = &g_interrupted;
+  std::signal(SIGINT, on_sigint);
   spm::RenderStats stats;
-  const spm::Image image = spm::render(scene, settings, device, &stats, progress);
+  t = profiler.now();
+  const spm::Image image = spm::render(scene, settings, devices, &stats, progress, &profiler);
+  profiler.stage("render", t, profiler.now());
+  std::signal(SIGINT, SIG_DFL);
   if (tty) std::cerr << "\n";
+  if (stats.interrupted) {
+    std::cerr << "spm: interrupted: writing the image of the " << stats.passes << " completed pass(es)\n";
+  }
+
+  t = profiler.now();
   spm::write_exr(a.output, image);
   const std::string png =
       a.png.empty() ? std::filesystem::path(a.output).replace_extension(".png").string() : a.png;
   spm::write_png(png, image);
+  profiler.stage("image_write", t, profiler.now());
+
+  profiler.add_value("bvh_build_s", stats.bvh_seconds);
+  for (size_t d = 0; d < devices.size(); ++d) {
+    for (const auto& [program, seconds] : devices[d]->program_build_seconds()) {
+      profiler.add_value("program_build_s." + std::to_string(d) + "." + program, seconds);
+    }
+  }
   if (a.profile) {
-    spm::print_kernel_table(std::cout, spm::kernel_times(device.launches()));
+    spm::print_kernel_table(std::cout, profiler.kernels());
     std::printf("stages: propagate %.3f s, grid build %.3f s, gather %.3f s; passes %.3f s in all\n",
                 stats.propagate_seconds, stats.grid_seconds, stats.gather_seconds, stats.seconds);
     std::printf("host: BVH %.3f s, kernel builds %.3f s\n", stats.bvh_seconds, stats.build_seconds);
     std::printf("gather: %llu camera samples, %.1f sphere tests per sample\n",
                 static_cast<unsigned long long>(stats.camera_samples),
                 double(stats.sphere_tests) / std::max<uint64_t>(1, stats.camera_samples));
+  }
+  if (!a.profile_json.empty()) {
+    nlohmann::json j = profiler.json();
+    j["scene"] = a.scene;
+    j["resolution"] = {settings.width, settings.height};
+    j["passes"] = stats.passes;
+    j["seconds"] = stats.seconds;
+    for (size_t d = 0; d < stats.devices.size(); ++d) {
+      j["devices"][d]["passes"] = stats.devices[d].passes;
+      j["devices"][d]["busy_seconds"] = stats.devices[d].busy_seconds;
+    }
+    spm::write_text(a.profile_json, j.dump(2) + "\n");
+  }
+  if (!a.trace.empty()) profiler.write_trace(a.trace);
+  for (size_t d = 0; d < stats.devices.size(); ++d) {
+    std::fprintf(stderr, "spm: device %zu (%s): %d passes, busy %.2f s\n", d, stats.devices[d].name.c_str(),
+                 stats.devices[d].passes, stats.devices[d].busy_seconds);
   }
   std::fprintf(stderr, "spm: wrote %s and %s (%d passes in %.2f s; kernel build %.2f s, BVH %.3f s)\n",
                a.output.c_str(), png.c_str(), stats.passes, stats.seconds, stats.build_seconds, stats.bvh_seconds);
@@ -145,7 +217,8 @@ int main(int argc, char** argv) {
   render->add_option("-o,--output", r.output, "Output OpenEXR file (32-bit float RGB)")->required();
   render->add_option("--png", r.png, "PNG preview (clamped, sRGB); default: beside the EXR");
   render->add_option("--device", r.device,
-                     "Device: P:D or a case-insensitive name substring; default: first GPU, else first CPU");
+                     "Device(s): P:D or a case-insensitive name substring, a comma-separated list, or 'all'; "
+                     "default: first GPU, else first CPU");
   render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT, overriding the scene's film");
   render->add_option("--spp", r.settings.spp, "Camera samples per pixel per pass")->check(CLI::PositiveNumber);
   render->add_option("--passes", r.settings.passes, "Number of passes (each a full emit, propagate, gather)")
@@ -176,6 +249,12 @@ int main(int argc, char** argv) {
                      "(photon map only, the paper's look)")
       ->check(CLI::IsMember({"nee", "photons"}));
   render->add_flag("--profile", r.profile, "Print per-kernel device times and host stages at the end");
+  render->add_option("--profile-json", r.profile_json, "Write the whole profile as JSON (schema: tools/profile.schema.json)");
+  render->add_option("--trace", r.trace,
+                     "Write a Chrome trace (one track per device queue and the host) for ui.perfetto.dev");
+  render->add_option("--device-memory", r.device_memory,
+                     "Device memory for a batch of streams, in bytes (also SPM_DEVICE_MEMORY); default: from the device")
+      ->check(CLI::PositiveNumber);
   render->add_option("--dump-maps", r.settings.dump_maps,
                      "Write the first pass's maps as PREFIX_volume.ply and PREFIX_surface.ply (position, flux)");
   render->add_option("--kernel-dir", r.kernel_dir,

@@ -17,7 +17,7 @@ __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uin
   grid.cell_start = cell_start;
   grid.item_pos = item_pos;
   uint tests = 0;
-  const float3 l = beam_estimate(grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
+  const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
                                  origins[i].w, directions[i].w, radius, kernel_type, estimator, &tests);
   out[i] = (float4)(l, (float)tests);
 }
@@ -32,5 +32,5 @@ __kernel void spm_surface_test(const __global SpmGridInfo* info, const __global 
   grid.info = info;
   grid.cell_start = cell_start;
   grid.item_pos = item_pos;
-  out[i] = (float4)(surface_estimate(grid, item_flux, points[i].xyz, normals[i].xyz, radius, kernel_type), 0.0f);
+  out[i] = (float4)(surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, kernel_type), 0.0f);
 }

@@ -85,7 +85,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const bool hit = scene_trace(s, o + tmin * d, d, tmax - tmin, &h);
     const float t_end = hit ? h.t + tmin : tmax;
     if (medium >= 0) {
-      L += beta * beam_estimate(maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
+      L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
                                 t_end, maps->radius, maps->kernel_type, maps->estimator, tests);
     }
     /* Escaping: outside a medium there is no environment light in the
@@ -112,7 +112,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       if (reflects_from(m, &surf, d)) {
         const bool nee = maps->direct == SPM_DIRECT_NEE;
         if (nee) L += beta * direct_diffuse(s, &surf, m, d, rng);
-        const float3 flux = surface_estimate(maps->surface_grid, maps->surface_flux, surf.p, facing_normal(&surf, d),
+        const float3 flux = surface_estimate(&maps->surface_grid, maps->surface_flux, surf.p, facing_normal(&surf, d),
                                              maps->radius, maps->kernel_type);
         L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
       }

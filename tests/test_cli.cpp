@@ -1,52 +1,19 @@
 // The spm executable: exit codes (0 success, 2 bad input, 1 runtime failure),
 // one clear line for bad input, and complete output files.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
+#include "cli_support.h"
 #include "film/image_io.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct Outcome {
-  int code;
-  std::string err;
-};
-
-class Cli : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("spm_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(path(name)) << text;
-    return path(name);
-  }
-
-  Outcome run(const std::string& args) const {
-    const std::string err = path("stderr.txt");
-    const std::string cmd = std::string(SPM_BINARY) + " " + args + " >/dev/null 2>" + err + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    std::ifstream in(err);
-    std::stringstream s;
-    s << in.rdbuf();
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
-  }
-
-  fs::path dir_;
-};
+using Cli = spm::test::CliTest;
+using spm::test::Outcome;
 
 const char* kTinyScene = R"(<scene version="3.0.0">
   <sensor type="perspective">
@@ -186,7 +153,7 @@ TEST_F(Cli, HelpAndDevicesSucceed) {
 
 TEST_F(Cli, KernelCompileErrorIsRuntimeFailureWithBuildLog) {
   const std::string scene = write("tiny.xml", kTinyScene);
-  fs::create_directories(path("kernels"));
+  fs::copy(SPM_KERNEL_SOURCE_DIR, path("kernels"), fs::copy_options::recursive);
   write("kernels/spm_gather.cl", "__kernel void spm_gather(__global float* x) { this is not C; }\n");
   const Outcome r = run("render " + scene + " -o " + path("o.exr") + " --kernel-dir " + path("kernels"));
   EXPECT_EQ(r.code, 1);

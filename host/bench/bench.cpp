@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <iostream>
+#include <sstream>
 
 #include "render/render.h"
 #include "scene/loader.h"
 #include "util/errors.h"
+#include "util/text_file.h"
 
 namespace spm {
 
@@ -68,13 +69,13 @@ std::vector<BenchRow> run_bench(Device& device, const BenchOptions& o) {
                 r.grid, r.gather, r.total);
   }
   if (!o.csv.empty()) {
-    std::ofstream csv(o.csv);
+    std::ostringstream csv;
     csv << "case,streams,associated,propagate_s,grid_s,gather_s,total_s\n";
     for (const auto& r : rows) {
       csv << r.name << "," << r.streams << "," << r.associated << "," << r.propagate << "," << r.grid << ","
           << r.gather << "," << r.total << "\n";
     }
-    if (!csv) throw RuntimeError("cannot write " + o.csv);
+    write_text(o.csv, csv.str());
   }
   return rows;
 }

@@ -84,6 +84,29 @@ DeviceInfo select_device(const std::string& selector) {
   throw InputError("--device", "no device name contains '" + selector + "' (see 'spm devices')");
 }
 
+std::vector<DeviceInfo> select_devices(const std::string& selector) {
+  if (lower(selector) == "all") {
+    auto all = list_devices();
+    if (all.empty()) throw RuntimeError("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+    return all;
+  }
+  std::vector<DeviceInfo> out;
+  size_t begin = 0;
+  for (;;) {
+    const size_t comma = selector.find(',', begin);
+    const DeviceInfo d = select_device(selector.substr(begin, comma - begin));
+    for (const auto& o : out) {
+      if (o.platform == d.platform && o.index == d.index) {
+        throw InputError("--device", "device " + std::to_string(d.platform) + ":" + std::to_string(d.index) +
+                                         " is selected twice");
+      }
+    }
+    out.push_back(d);
+    if (comma == std::string::npos) return out;
+    begin = comma + 1;
+  }
+}
+
 Device::Device(const DeviceInfo& info, std::string kernel_dir) : info_(info), kernel_dir_(std::move(kernel_dir)) {
   context_ = cl::Context(info_.device);
   queue_ = cl::CommandQueue(context_, info_.device, CL_QUEUE_PROFILING_ENABLE);
@@ -108,7 +131,9 @@ cl::Kernel Device::kernel(const std::string& program, const std::string& name) {
       }
       throw RuntimeError("building " + program + ".cl on " + info_.name + ": " + describe(e) + "\n" + log);
     }
-    build_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    build_seconds_ += seconds;
+    program_seconds_[program] = seconds;
     it = programs_.emplace(program, prog).first;
   }
   return cl::Kernel(it->second, name.c_str());
@@ -126,8 +151,9 @@ cl::Event Device::launch(const std::string& label, cl::Kernel& kernel, size_t it
   const size_t local = work_group_size(kernel);
   const size_t global = std::max<size_t>(local, (items + local - 1) / local * local);
   cl::Event event;
+  const auto enqueued = std::chrono::steady_clock::now();
   queue_.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(local), nullptr, &event);
-  launches_.push_back({label, event, global, items});
+  launches_.push_back({label, event, global, items, enqueued});
   return event;
 }
 

@@ -4,6 +4,7 @@
 
 #include <CL/opencl.hpp>
 
+#include <chrono>
 #include <map>
 #include <string>
 #include <type_traits>
@@ -35,12 +36,16 @@ std::vector<DeviceInfo> list_devices();
 // matches, RuntimeError when there is no OpenCL device at all.
 DeviceInfo select_device(const std::string& selector);
 
+// A comma-separated list of selectors, or "all" for every device.
+std::vector<DeviceInfo> select_devices(const std::string& selector);
+
 // One enqueued command with its label, kept for the profile.
 struct Launch {
   std::string label;
   cl::Event event;
   size_t global = 0;  // work-items launched (padded)
   size_t items = 0;   // items that had work
+  std::chrono::steady_clock::time_point enqueued;  // host clock, to place device times on the host's
 };
 
 class Device {
@@ -68,7 +73,7 @@ class Device {
     if (!data.empty()) {
       cl::Event e;
       queue_.enqueueWriteBuffer(b, CL_TRUE, 0, sizeof(T) * data.size(), data.data(), nullptr, &e);
-      launches_.push_back({"upload", e, 0, 0});
+      launches_.push_back({"upload", e, 0, 0, std::chrono::steady_clock::now()});
     }
     return b;
   }
@@ -79,14 +84,19 @@ class Device {
     if (count > 0) {
       cl::Event e;
       queue_.enqueueReadBuffer(buffer, CL_TRUE, 0, sizeof(T) * count, out.data(), nullptr, &e);
-      launches_.push_back({"download", e, 0, 0});
+      launches_.push_back({"download", e, 0, 0, std::chrono::steady_clock::now()});
     }
     return out;
   }
 
   size_t work_group_size(const cl::Kernel& kernel) const;
   double build_seconds() const { return build_seconds_; }
-  const std::vector<Launch>& launches() const { return launches_; }
+  // Seconds each program took to build: about a second cold, a few
+  // hundredths when PoCL's (or the driver's) kernel cache hits.
+  const std::map<std::string, double>& program_build_seconds() const { return program_seconds_; }
+
+  // The launches since the last call, for the profile.
+  std::vector<Launch> take_launches() { return std::exchange(launches_, {}); }
 
  private:
   DeviceInfo info_;
@@ -95,6 +105,7 @@ class Device {
   cl::CommandQueue queue_;
   std::map<std::string, cl::Program> programs_;
   std::vector<Launch> launches_;
+  std::map<std::string, double> program_seconds_;
   double build_seconds_ = 0.0;
 };
 

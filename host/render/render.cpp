@@ -2,12 +2,15 @@
 
 #include <chrono>
 #include <cmath>
+#include <exception>
+#include <map>
+#include <mutex>
+#include <thread>
 
+#include "render/pass_renderer.h"
 #include "scene/gpu_scene.h"
-#include "spm/gather.h"
-#include "spm/maps_io.h"
-#include "spm/streams.h"
 #include "util/errors.h"
+#include "util/timer.h"
 
 namespace spm {
 
@@ -63,80 +66,93 @@ float pass_radius(float r0, float alpha, int pass) {
   return static_cast<float>(std::sqrt(r2));
 }
 
-namespace {
-
-cl_uint code_of(const std::string& value, std::initializer_list<const char*> names) {
-  cl_uint i = 0;
-  for (const char* n : names) {
-    if (value == n) return i;
-    ++i;
-  }
-  throw InputError("", "unknown value '" + value + "'");
-}
-
-}  // namespace
-
 Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats,
              const Progress& progress) {
+  return render(scene, settings, std::vector<Device*>{&device}, stats, progress, nullptr);
+}
+
+Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
+             RenderStats* stats, const Progress& progress, Profiler* profiler) {
   const RenderSettings s = resolve_settings(scene, settings);
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);
-  GpuScene gpu(device, tables);
-  const size_t pixels = static_cast<size_t>(s.width) * s.height;
-  cl::Buffer film(device.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * pixels);
-  cl::Buffer tests(device.context(), CL_MEM_WRITE_ONLY, sizeof(cl_uint) * pixels);
-  cl::Kernel gather = device.kernel("spm_gather", "spm_gather");
-  // The codes follow SPM_KERNEL_*, SPM_ESTIMATOR_* (kernels/lib/estimate.h)
-  // and SPM_DIRECT_* (kernels/spm_gather.cl).
-  const cl_uint kernel = code_of(in.kernel, {"uniform", "epanechnikov"});
-  const cl_uint estimator = code_of(in.estimator, {"bre", "paper"});
-  const cl_uint direct = code_of(in.direct, {"nee", "photons"});  // nee: 0
-
-  // Passes are summed in pass order in double precision, so the image does not
-  // depend on which device rendered which pass (METHOD.md 6).
-  std::vector<double> sum(pixels * 3, 0.0);
+  const size_t pixels = size_t(s.width) * s.height;
+  const bool timed = in.time > 0.0f && settings.passes == 0;
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  const bool timed = in.time > 0.0f && settings.passes == 0;
+
+  // Passes are handed out in order; finished ones wait in `done` until all
+  // earlier ones are summed, in double precision, so the sum's order is the
+  // pass order whatever the devices (METHOD.md 6).
+  std::mutex mutex;
+  std::atomic<int> next{0};
+  std::atomic<bool> failed{false};
+  std::exception_ptr error;
+  std::map<int, std::vector<float>> done;
+  std::vector<double> sum(pixels * 3, 0.0);
+  int summed = 0;
   RenderStats st;
-  int pass = 0;
-  for (; timed ? (pass == 0 || elapsed() < in.time) : pass < s.passes; ++pass) {
-    // Progressive radius (METHOD.md 6), the stream width shrinking with it.
-    const float radius = pass_radius(in.radius, in.alpha, pass);
-    StreamSettings ss = stream_settings(scene, s, pass);
-    ss.width = in.width * radius / in.radius;
-    auto t0 = std::chrono::steady_clock::now();
-    const PhotonMaps maps = trace_streams(device, gpu, ss);
-    auto t1 = std::chrono::steady_clock::now();
-    st.propagate_seconds += std::chrono::duration<double>(t1 - t0).count();
-    if (pass == 0 && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
-    const MapGrids grids(device, maps, radius, direct == 0);
-    st.grid_seconds += grids.build_seconds();
-    t0 = std::chrono::steady_clock::now();
-    set_args(gather, gpu, gpu.camera(), film, tests, cl_uint(s.spp), cl_uint(s.max_depth), cl_uint(s.seed),
-             cl_uint(pass), radius, kernel, estimator, direct, grids);
-    device.launch("gather", gather, pixels);
-    const auto pass_film = device.download<cl_float4>(film, pixels);
-    for (cl_uint t : device.download<cl_uint>(tests, pixels)) st.sphere_tests += t;
-    st.gather_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    st.camera_samples += pixels * s.spp;
-    for (size_t i = 0; i < pixels; ++i) {
-      for (int c = 0; c < 3; ++c) sum[3 * i + c] += pass_film[i].s[c];
+  st.devices.resize(devices.size());
+  const auto stopping = [&] { return failed.load() || (s.stop && s.stop->load()); };
+
+  const auto work = [&](size_t d) {
+    try {
+      Device& device = *devices[d];
+      st.devices[d].name = device.info().name;
+      if (profiler) profiler->add_device(int(d), device.info().name);
+      PassRenderer renderer(device, scene, tables, s);
+      for (;;) {
+        if (stopping()) break;
+        const int pass = next++;
+        if (timed ? (pass > 0 && elapsed() >= in.time) : pass >= s.passes) break;
+        Timer busy;
+        PassOutput out = renderer.render(pass, profiler, int(d) + 1);
+        if (profiler) {
+          profiler->add_launches(int(d), device.take_launches());
+          profiler->add_pass(int(d), pass, out.counters);
+        } else {
+          device.take_launches();
+        }
+        std::lock_guard<std::mutex> lock(mutex);
+        st.devices[d].passes += 1;
+        st.devices[d].busy_seconds += busy.lap();
+        st.propagate_seconds += out.propagate_seconds;
+        st.grid_seconds += out.grid_seconds;
+        st.gather_seconds += out.gather_seconds;
+        st.camera_samples += out.counters.camera_samples;
+        st.sphere_tests += out.counters.sphere_tests;
+        done.emplace(pass, std::move(out.rgb));
+        for (auto it = done.find(summed); it != done.end(); it = done.find(summed)) {
+          for (size_t i = 0; i < sum.size(); ++i) sum[i] += it->second[i];
+          done.erase(it);
+          ++summed;
+          if (progress) progress(summed, timed ? 0 : s.passes);
+        }
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!error) error = std::current_exception();
+      failed = true;
     }
-    if (progress) progress(pass + 1, timed ? 0 : s.passes);
-  }
+  };
+  std::vector<std::thread> threads;
+  for (size_t d = 1; d < devices.size(); ++d) threads.emplace_back(work, d);
+  work(0);
+  for (auto& t : threads) t.join();
+  if (error) std::rethrow_exception(error);
+  if (summed == 0) throw RuntimeError("the render stopped before its first pass finished");
+
   Image image;
   image.width = s.width;
   image.height = s.height;
   image.rgb.resize(pixels * 3);
-  for (size_t i = 0; i < sum.size(); ++i) image.rgb[i] = static_cast<float>(sum[i] / pass);
-  if (stats) {
-    st.passes = pass;
-    st.seconds = elapsed();
-    st.bvh_seconds = tables.bvh_seconds;
-    st.build_seconds = device.build_seconds();
-    *stats = st;
-  }
+  for (size_t i = 0; i < sum.size(); ++i) image.rgb[i] = static_cast<float>(sum[i] / summed);
+  st.passes = summed;
+  st.interrupted = s.stop && s.stop->load();
+  st.seconds = elapsed();
+  st.bvh_seconds = tables.bvh_seconds;
+  for (Device* d : devices) st.build_seconds += d->build_seconds();
+  if (stats) *stats = st;
   return image;
 }
 

@@ -2,13 +2,16 @@
 // (seed, pass), averaged in pass order into the image.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "device/device.h"
 #include "film/image_io.h"
 #include "scene/scene.h"
+#include "profile/profile.h"
 #include "spm/streams.h"
 
 namespace spm {
@@ -22,18 +25,29 @@ struct RenderSettings {
   int max_depth = 0;  // 0: the integrator's `max_depth`
   std::string dump_maps;     // PLY prefix for the first pass's photon maps; empty: none
   size_t memory_budget = 0;  // device bytes for a batch of streams; 0: from the device
+  // When set, no new pass starts; the passes in flight finish (SIGINT).
+  const std::atomic<bool>* stop = nullptr;
+};
+
+struct DeviceStats {
+  std::string name;
+  int passes = 0;
+  double busy_seconds = 0.0;  // wall clock of its passes
 };
 
 struct RenderStats {
   int passes = 0;
+  bool interrupted = false;     // stopped early by RenderSettings::stop
   double seconds = 0.0;         // wall clock of the passes
   double bvh_seconds = 0.0;
-  double build_seconds = 0.0;   // kernel program builds
-  double propagate_seconds = 0.0;  // stream propagation incl. map downloads and sorting, all passes
-  double grid_seconds = 0.0;       // sphere grid builds on the host, all passes
-  double gather_seconds = 0.0;     // grid uploads, gather kernel and film download, all passes
-  uint64_t camera_samples = 0;  // gather samples, all passes
-  uint64_t sphere_tests = 0;    // volume records examined by the beam estimates
+  double build_seconds = 0.0;   // kernel program builds, all devices
+  // Summed over passes (and devices: with several, more than `seconds`).
+  double propagate_seconds = 0.0;  // stream propagation incl. map downloads and sorting
+  double grid_seconds = 0.0;       // sphere grid builds and uploads
+  double gather_seconds = 0.0;     // gather kernel and film download
+  uint64_t camera_samples = 0;
+  uint64_t sphere_tests = 0;       // volume records examined by the beam estimates
+  std::vector<DeviceStats> devices;
 };
 
 // Called after each finished pass with (passes done, passes in total), the
@@ -54,6 +68,12 @@ float pass_radius(float r0, float alpha, int pass);
 
 // The stream propagation settings of pass `pass`.
 StreamSettings stream_settings(const Scene& scene, const RenderSettings& settings, int pass);
+
+// Renders on every device of `devices` at once: the next pass goes to
+// whichever device is free, and passes are summed in pass order, so the image
+// does not depend on the split (METHOD.md 6-7). `profiler` may be null.
+Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
+             RenderStats* stats = nullptr, const Progress& progress = {}, Profiler* profiler = nullptr);
 
 Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats = nullptr,
              const Progress& progress = {});

@@ -10,7 +10,7 @@ namespace spm {
 
 namespace {
 
-constexpr float kPi = 3.14159265358979323846f;
+constexpr double kPi = 3.14159265358979323846;
 
 void put3(float* dst, const glm::vec3& v) {
   dst[0] = v.x;
@@ -18,21 +18,20 @@ void put3(float* dst, const glm::vec3& v) {
   dst[2] = v.z;
 }
 
-float mean(const glm::vec3& v) { return (v.x + v.y + v.z) / 3.0f; }
-
-float triangle_area(const SpmPrim& p) {
-  const glm::vec3 a(p.p0[0], p.p0[1], p.p0[2]);
-  const glm::vec3 b(p.p1[0], p.p1[1], p.p1[2]);
-  const glm::vec3 c(p.p2[0], p.p2[1], p.p2[2]);
-  return 0.5f * glm::length(glm::cross(b - a, c - a));
+// In double, as the light's power: a small triangle's squared lengths underflow a float.
+double triangle_area(const SpmPrim& p) {
+  const glm::dvec3 a(p.p0[0], p.p0[1], p.p0[2]);
+  const glm::dvec3 b(p.p1[0], p.p1[1], p.p1[2]);
+  const glm::dvec3 c(p.p2[0], p.p2[1], p.p2[2]);
+  return 0.5 * glm::length(glm::cross(b - a, c - a));
 }
 
-float prim_area(const SpmPrim& p) {
-  return p.kind == SPM_PRIM_SPHERE ? 4.0f * kPi * p.p1[0] * p.p1[0] : triangle_area(p);
+double prim_area(const SpmPrim& p) {
+  return p.kind == SPM_PRIM_SPHERE ? 4.0 * kPi * double(p.p1[0]) * double(p.p1[0]) : triangle_area(p);
 }
 
 // Integral over the sphere of Mitsuba's spot falloff: 2 pi int falloff(theta) sin(theta).
-float spot_solid_angle(float cutoff, float beam) {
+double spot_solid_angle(double cutoff, double beam) {
   const int steps = 4096;
   double sum = 0.0;
   for (int i = 0; i < steps; ++i) {
@@ -40,7 +39,34 @@ float spot_solid_angle(float cutoff, float beam) {
     const double f = theta <= beam ? 1.0 : (cutoff - theta) / (cutoff - beam);
     sum += f * std::sin(theta);
   }
-  return static_cast<float>(2.0 * kPi * sum * cutoff / steps);
+  return 2.0 * kPi * sum * cutoff / steps;
+}
+
+// light_power() in double precision: a tiny or huge light neither underflows
+// nor overflows on the way (the loader refuses lights whose power does not
+// fit a float, with the same computation).
+glm::dvec3 light_power_double(const Scene& scene, const Light& light) {
+  switch (light.type) {
+    case Light::Type::Point:
+      return 4.0 * kPi * glm::dvec3(light.intensity);
+    case Light::Type::Spot:
+      return glm::dvec3(light.intensity) *
+             spot_solid_angle(glm::radians(double(light.cutoff_angle)), glm::radians(double(light.beam_width)));
+    case Light::Type::Area:
+    default: {
+      const Shape& s = scene.shapes[light.shape];
+      double area = 0.0;
+      if (s.kind == Shape::Kind::Sphere) {
+        area = 4.0 * kPi * double(s.radius) * double(s.radius);
+      } else {
+        for (const auto& t : s.triangles) {
+          const glm::dvec3 a(s.positions[t.x]), b(s.positions[t.y]), c(s.positions[t.z]);
+          area += 0.5 * glm::length(glm::cross(b - a, c - a));
+        }
+      }
+      return kPi * area * glm::dvec3(light.radiance);
+    }
+  }
 }
 
 SpmCamera make_camera(const Camera& c, int width, int height) {
@@ -83,28 +109,7 @@ SpmCamera make_camera(const Camera& c, int width, int height) {
 
 }  // namespace
 
-glm::vec3 light_power(const Scene& scene, const Light& light) {
-  switch (light.type) {
-    case Light::Type::Point:
-      return 4.0f * kPi * light.intensity;
-    case Light::Type::Spot:
-      return light.intensity *
-             spot_solid_angle(glm::radians(light.cutoff_angle), glm::radians(light.beam_width));
-    case Light::Type::Area:
-    default: {
-      const Shape& s = scene.shapes[light.shape];
-      float area = 0.0f;
-      if (s.kind == Shape::Kind::Sphere) {
-        area = 4.0f * kPi * s.radius * s.radius;
-      } else {
-        for (const auto& t : s.triangles) {
-          area += 0.5f * glm::length(glm::cross(s.positions[t.y] - s.positions[t.x], s.positions[t.z] - s.positions[t.x]));
-        }
-      }
-      return kPi * area * light.radiance;
-    }
-  }
-}
+glm::vec3 light_power(const Scene& scene, const Light& light) { return glm::vec3(light_power_double(scene, light)); }
 
 SceneTables flatten_scene(const Scene& scene, int width, int height) {
   SceneTables t;
@@ -177,12 +182,12 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
   std::vector<double> powers;
   for (const auto& l : scene.lights) {
     SpmLight g{};
-    const glm::vec3 power = light_power(scene, l);
-    g.power = mean(power);
+    const glm::dvec3 power = light_power_double(scene, l);
+    g.power = static_cast<float>((power.x + power.y + power.z) / 3.0);
     g.medium = l.medium;
-    if (!(g.power > 0.0f) || !std::isfinite(g.power)) {
-      throw InputError(l.where, "light emits no power (zero radiance, intensity or area)");
-    }
+    // The loader refuses these already; kept for scenes built in code.
+    if (!(g.power > 0.0f)) throw InputError(l.where, "light emits no power (zero radiance, intensity or area)");
+    if (!std::isfinite(g.power)) throw InputError(l.where, "light power overflows a 32-bit float");
     if (l.type == Light::Type::Area) {
       g.type = SPM_LIGHT_AREA;
       put3(g.emission, l.radiance);

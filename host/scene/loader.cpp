@@ -44,6 +44,7 @@ class Loader {
     parse_children(root);
     ctx_.check_overrides(root);
     if (scene_.lights.empty()) ctx_.fail(root, "scene has no light (no emitter)");
+    for (const Light& light : scene_.lights) check_power(light);
     return std::move(scene_);
   }
 
@@ -82,12 +83,20 @@ class Loader {
   // The children of an included <scene> are read as if they were written here.
   void parse_include(const pugi::xml_node& node) {
     ctx_.check_attributes(node, {"filename"});
+    no_content(node);
     std::string path = ctx_.resolve(ctx_.attr(node, "filename"));
     if (ctx_.is_open(path)) ctx_.fail(node, "<include> of '" + path + "' includes itself");
     std::string text = xml::read_text_file(path, ctx_.where(node), "included file");
     pugi::xml_node root = ctx_.push_source(text, path);
     parse_children(root);
     ctx_.pop_source();
+  }
+
+  // <include> and <ref> are empty elements: content would be skipped silently.
+  void no_content(const pugi::xml_node& node) const {
+    if (pugi::xml_node child = node.first_child())
+      ctx_.fail(child.type() == pugi::node_element ? child : node,
+                "<" + std::string(node.name()) + "> takes no content");
   }
 
   // Checks the attributes every plugin element may have and returns its type.
@@ -107,6 +116,7 @@ class Loader {
   // <ref id=".."/>: the index of the earlier object it names, which must be a `tag`.
   int resolve_ref(const pugi::xml_node& ref, const std::string& tag) {
     ctx_.check_attributes(ref, {"id", "name"});
+    no_content(ref);
     std::string id = ctx_.attr(ref, "id");
     auto it = ids_.find(id);
     if (it == ids_.end()) ctx_.fail(ref, "<ref> to unknown id '" + id + "' (ids must be defined before use)");
@@ -264,7 +274,12 @@ class Loader {
     Shape shape;
     shape.where = ctx_.where(node);
     glm::mat4 to_world = p.get_transform("to_world").value_or(glm::mat4(1.0f));
-    if (!xml::is_invertible(to_world)) p.fail("to_world", "singular to_world of " + p.what());
+    if (!xml::is_invertible(to_world)) {
+      glm::mat3 l(to_world);
+      if (type == "rectangle" && !(glm::length(glm::cross(l[0], l[1])) > 0.0f))
+        p.fail("to_world", "to_world of " + p.what() + " gives it zero area (an axis scaled to zero)");
+      p.fail("to_world", "singular to_world of " + p.what() + " (an axis scaled to zero, or two axes parallel)");
+    }
     shape.flip_normals = p.get_bool("flip_normals").value_or(false);
 
     if (type == "sphere") {
@@ -393,11 +408,13 @@ class Loader {
     }
     size_t dropped = 0;
     for (const glm::uvec3& t : mesh.triangles) {
-      glm::vec3 a = mesh.positions[t.x], b = mesh.positions[t.y], c = mesh.positions[t.z];
-      float twice_area = glm::length(glm::cross(b - a, c - a));
-      float longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
+      // In double: squared lengths of float positions underflow or overflow a
+      // float for very small or very large meshes.
+      glm::dvec3 a(mesh.positions[t.x]), b(mesh.positions[t.y]), c(mesh.positions[t.z]);
+      double twice_area = glm::length(glm::cross(b - a, c - a));
+      double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
       // Zero area up to float rounding: height over the longest edge ~ 0.
-      if (!(twice_area > 1e-7f * longest * longest)) {
+      if (!(twice_area > 1e-7 * longest * longest)) {
         ++dropped;
         continue;
       }
@@ -409,6 +426,61 @@ class Loader {
                 << (dropped == 1 ? "" : "s") << " of the shape\n";
     shape.positions = std::move(mesh.positions);
     shape.normals = std::move(mesh.normals);
+  }
+
+  // ---- light power ---------------------------------------------------------
+
+  // A light the renderer cannot pick, with no power (zero radiance or
+  // intensity, zero area) or more than a float holds, is refused here, at its
+  // element, before anything is rendered. The power is the one lights are
+  // picked by (light_power() in gpu_scene.cpp, the mean over RGB), computed
+  // the same way, in double precision and then rounded to float.
+  void check_power(const Light& light) const {
+    const bool area = light.type == Light::Type::Area;
+    const glm::dvec3 emitted(area ? light.radiance : light.intensity);
+    const char* what = area ? "radiance" : "intensity";
+    const double mean = (emitted.x + emitted.y + emitted.z) / 3.0;
+    if (!(mean > 0.0)) throw InputError(light.where, std::string("light emits no power: its ") + what + " is zero");
+    double extent = 0.0;  // area times pi, or the solid angle of a point or spot light
+    const char* extent_name = "area";
+    if (area) {
+      extent = kPi * shape_area(scene_.shapes.at(static_cast<size_t>(light.shape)));
+    } else if (light.type == Light::Type::Point) {
+      extent = 4.0 * kPi;
+    } else {
+      extent = spot_solid_angle(light.cutoff_angle * kPi / 180.0, light.beam_width * kPi / 180.0);
+      extent_name = "cone (cutoff_angle)";
+    }
+    const float power = static_cast<float>(mean * extent);
+    if (!(extent > 0.0) || !(power > 0.0f))
+      throw InputError(light.where, std::string("light emits no power: its ") + extent_name + " is zero or too small");
+    if (!std::isfinite(power))
+      throw InputError(light.where, "light power overflows a 32-bit float: reduce its " + std::string(what) +
+                                        (area ? " or its shape's size" : ""));
+  }
+
+  static constexpr double kPi = 3.14159265358979323846;
+
+  static double shape_area(const Shape& s) {
+    if (s.kind == Shape::Kind::Sphere) return 4.0 * kPi * double(s.radius) * double(s.radius);
+    double area = 0.0;
+    for (const glm::uvec3& t : s.triangles) {
+      const glm::dvec3 a(s.positions[t.x]), b(s.positions[t.y]), c(s.positions[t.z]);
+      area += 0.5 * glm::length(glm::cross(b - a, c - a));
+    }
+    return area;
+  }
+
+  // Mitsuba's spot falloff integrated over the sphere, as gpu_scene.cpp does.
+  static double spot_solid_angle(double cutoff, double beam) {
+    const int steps = 4096;
+    double sum = 0.0;
+    for (int i = 0; i < steps; ++i) {
+      const double theta = (i + 0.5) * cutoff / steps;
+      const double f = theta <= beam ? 1.0 : (cutoff - theta) / (cutoff - beam);
+      sum += f * std::sin(theta);
+    }
+    return 2.0 * kPi * sum * cutoff / steps;
   }
 
   // ---- bsdfs --------------------------------------------------------------
@@ -481,10 +553,15 @@ class Loader {
     if (tag == "ref") {
       inner = scene_.materials[resolve_ref(child, "bsdf")];
     } else if (tag == "bsdf") {
+      // Checked before reading it: twosided in twosided means nothing more,
+      // and nesting it thousands deep would overflow the stack.
+      if (ctx_.opt_attr(child, "type") == std::optional<std::string>("twosided"))
+        ctx_.fail(child, "bsdf 'twosided' cannot wrap another twosided bsdf");
       inner = child.attribute("id") ? scene_.materials[add_bsdf(child)] : read_bsdf(child);
     } else {
       ctx_.fail(child, "<" + tag + "> is not allowed in bsdf 'twosided'");
     }
+    if (inner.twosided) ctx_.fail(child, "bsdf 'twosided' cannot wrap another twosided bsdf");
     if (inner.type == Material::Type::Dielectric || inner.type == Material::Type::Null)
       ctx_.fail(child, "bsdf 'twosided' cannot wrap a transmissive bsdf (dielectric, null)");
     inner.twosided = true;

@@ -2,8 +2,13 @@
 
 #include <tiny_obj_loader.h>
 
+#include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <functional>
+#include <limits>
 #include <sstream>
 #include <unordered_map>
 
@@ -20,13 +25,158 @@ std::string first_line(const std::string& s) {
   return line.empty() ? "unknown error" : line;
 }
 
+bool is_space(char c) { return c == ' ' || c == '\t'; }
+
+// The whitespace-separated words of `s`.
+std::vector<std::string> words(const std::string& s) {
+  std::vector<std::string> out;
+  size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && is_space(s[i])) ++i;
+    size_t b = i;
+    while (i < s.size() && !is_space(s[i])) ++i;
+    if (i > b) out.push_back(s.substr(b, i - b));
+  }
+  return out;
+}
+
+// A whole word as a finite decimal number (tinyobjloader reads no other form).
+bool parse_number(const std::string& word, double& out) {
+  for (char c : word)
+    if (!std::isdigit(static_cast<unsigned char>(c)) && c != '+' && c != '-' && c != '.' && c != 'e' && c != 'E')
+      return false;
+  const char* begin = word.c_str();
+  char* end = nullptr;
+  out = std::strtod(begin, &end);
+  return !word.empty() && end == begin + word.size() && std::isfinite(out);
+}
+
+// Checks every vertex and face line before tinyobjloader reads the text, so
+// that a corrupt file is refused at its line: tinyobjloader names the line of
+// some errors only, skips some bad faces with a warning or none (an index out
+// of range in a polygon), reads a malformed number as 0, and an index beyond
+// int's range is undefined behaviour in its atoi. Lines are split as
+// tinyobjloader splits them ("\n", "\r\n" or "\r"; the text of a line ends at
+// a NUL byte; trailing blanks dropped), and a directive is its first word,
+// after leading blanks, when more follows.
+class ObjChecker {
+ public:
+  ObjChecker(const std::string& text, std::function<void(size_t, const std::string&)> fail)
+      : text_(text), fail_(std::move(fail)) {}
+
+  void run() {
+    // First pass: the number of positions, normals and texture coordinates,
+    // since positive indices may refer to vertices defined later.
+    scan([&](size_t, const std::string& directive, const std::string&) {
+      if (directive == "v") ++total_[0];
+      if (directive == "vn") ++total_[2];
+      if (directive == "vt") ++total_[1];
+    });
+    size_t seen[3] = {0, 0, 0};  // defined so far, for relative (negative) indices
+    scan([&](size_t line, const std::string& directive, const std::string& rest) {
+      if (directive == "v" || directive == "vn") {
+        std::vector<std::string> w = words(rest);
+        double x = 0.0;
+        const char* what = directive == "v" ? "vertex position" : "vertex normal";
+        if (w.size() < 3) fail_(line, std::string("a ") + what + " needs 3 numbers, got " + std::to_string(w.size()));
+        for (size_t i = 0; i < 3; ++i)
+          if (!parse_number(w[i], x)) fail_(line, std::string("malformed or non-finite ") + what + " '" + w[i] + "'");
+        ++seen[directive == "v" ? 0 : 2];
+      } else if (directive == "vt") {
+        ++seen[1];
+      } else if (directive == "f") {
+        check_face(line, rest, seen);
+      }
+    });
+  }
+
+ private:
+  template <typename F>
+  void scan(F&& on_line) const {
+    size_t line = 0, i = 0;
+    while (i < text_.size()) {
+      size_t end = i;
+      while (end < text_.size() && text_[end] != '\n' && text_[end] != '\r') ++end;
+      ++line;
+      std::string content = text_.substr(i, end - i);
+      content = content.substr(0, content.find('\0'));
+      content = content.substr(0, content.find_last_not_of(" \t") + 1);  // trailing blanks, as tinyobjloader
+      i = end;
+      if (i < text_.size()) i += (text_[i] == '\r' && i + 1 < text_.size() && text_[i + 1] == '\n') ? 2 : 1;
+      size_t b = 0;
+      while (b < content.size() && is_space(content[b])) ++b;
+      size_t e = b;
+      while (e < content.size() && !is_space(content[e])) ++e;
+      // tinyobjloader only takes a directive followed by a blank ("f 1 2 3").
+      if (e == content.size()) continue;
+      on_line(line, content.substr(b, e - b), content.substr(e));
+    }
+  }
+
+  // One index of a face corner: 1-based, or negative (relative to the
+  // elements defined so far); `kind` 0 position, 1 texture coordinate, 2 normal.
+  void check_index(size_t line, const std::string& word, const std::string& index, int kind, const size_t* seen) {
+    static const char* const kNames[3] = {"vertex", "texture coordinate", "normal"};
+    const char* begin = index.c_str();
+    char* end = nullptr;
+    errno = 0;
+    long long v = std::strtoll(begin, &end, 10);
+    if (index.empty() || end != begin + index.size() || !(std::isdigit(static_cast<unsigned char>(index.back()))))
+      fail_(line, "malformed face corner '" + word + "'");
+    if (v == 0) fail_(line, "a face refers to " + std::string(kNames[kind]) + " 0 (OBJ indices start at 1)");
+    const long long total = static_cast<long long>(total_[kind]);
+    if (v > 0 && (errno == ERANGE || v > total))
+      fail_(line, "a face refers to " + std::string(kNames[kind]) + " " + index + " but the file has " +
+                      std::to_string(total));
+    if (v < 0 && (errno == ERANGE || -v > static_cast<long long>(seen[kind])))
+      fail_(line, "a face refers to " + std::string(kNames[kind]) + " " + index + " (relative) but only " +
+                      std::to_string(seen[kind]) + " precede it");
+  }
+
+  void check_face(size_t line, const std::string& rest, const size_t* seen) {
+    std::vector<std::string> corners = words(rest);
+    if (corners.size() < 3)
+      fail_(line, "a face has " + std::to_string(corners.size()) + " vertices (at least 3 needed)");
+    for (const std::string& word : corners) {
+      // v, v/vt, v//vn or v/vt/vn
+      std::string parts[3];
+      size_t count = 0, b = 0;
+      for (;;) {
+        size_t slash = word.find('/', b);
+        if (count == 3) fail_(line, "malformed face corner '" + word + "'");
+        parts[count++] = word.substr(b, slash == std::string::npos ? std::string::npos : slash - b);
+        if (slash == std::string::npos) break;
+        b = slash + 1;
+      }
+      check_index(line, word, parts[0], 0, seen);
+      if (count >= 2 && !(count == 3 && parts[1].empty())) check_index(line, word, parts[1], 1, seen);
+      const bool normal = count == 3;
+      if (normal) check_index(line, word, parts[2], 2, seen);
+      if (normals_line_ == 0) {
+        normals_line_ = line;
+        with_normals_ = normal;
+      } else if (normal != with_normals_) {
+        fail_(line, "vertex normals on some faces only (this face " + std::string(normal ? "has" : "lacks") +
+                        " them, the first face, line " + std::to_string(normals_line_) + ", " +
+                        (with_normals_ ? "has" : "lacks") + " them)");
+      }
+    }
+  }
+
+  const std::string& text_;
+  std::function<void(size_t, const std::string&)> fail_;
+  size_t total_[3] = {0, 0, 0};
+  size_t normals_line_ = 0;
+  bool with_normals_ = false;
+};
+
 }  // namespace
 
 ObjMesh parse_obj(const std::string& text, const std::string& name, bool vertex_normals, const std::string& where) {
-  auto fail = [&](const std::string& problem) -> void {
-    throw InputError(where, "OBJ file '" + name + "': " + problem);
-  };
-
+  auto fail = [&](const std::string& problem) -> void { throw InputError(where, "OBJ file " + name + ": " + problem); };
+  ObjChecker(text, [&](size_t line, const std::string& problem) {
+    throw InputError(where, "OBJ file " + name + ":" + std::to_string(line) + ": " + problem);
+  }).run();
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;

@@ -96,6 +96,8 @@ void Context::fail(const pugi::xml_node& node, const std::string& problem) const
 
 void Context::define_default(const pugi::xml_node& node) {
   check_attributes(node, {"name", "value"});
+  if (pugi::xml_node child = node.first_child())
+    fail(child.type() == pugi::node_element ? child : node, "<default> takes no content");
   std::string name = attr(node, "name");
   std::string value = attr(node, "value");
   if (name.empty()) fail(node, "<default> with an empty name");

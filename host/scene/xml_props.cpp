@@ -20,6 +20,15 @@ constexpr const char* kPropertyTags[] = {"float",    "integer", "boolean", "stri
 constexpr const char* kObjectTags[] = {"sensor",  "film",   "rfilter", "sampler",    "shape", "bsdf",
                                        "emitter", "medium", "phase",   "integrator", "ref"};
 
+// A property element holds its value in attributes; anything inside it
+// (elements or text) would otherwise be skipped silently.
+void no_content(const Context& ctx, const pugi::xml_node& node) {
+  pugi::xml_node child = node.first_child();
+  if (child)
+    ctx.fail(child.type() == pugi::node_element ? child : node,
+             "<" + std::string(node.name()) + "> takes no content (its value goes in attributes)");
+}
+
 }  // namespace
 
 Props::Props(const Context& ctx, const pugi::xml_node& element, std::string what) : ctx_(ctx), what_(std::move(what)) {
@@ -47,6 +56,7 @@ const Props::Prop* Props::take(const char* name, std::initializer_list<const cha
     p.used = true;
     if (!one_of(p.node.name(), tags))
       ctx_.fail(p.node, describe(p) + " must be " + expected + ", not <" + p.node.name() + ">");
+    if (std::string(p.node.name()) != "transform") no_content(ctx_, p.node);
     return &p;
   }
   return nullptr;

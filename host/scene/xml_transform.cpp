@@ -44,6 +44,9 @@ glm::mat4 lookat_step(const Context& ctx, const pugi::xml_node& node) {
 
 glm::mat4 step(const Context& ctx, const pugi::xml_node& node) {
   std::string tag = node.name();
+  // A step holds its values in attributes; anything inside would be skipped.
+  if (pugi::xml_node child = node.first_child())
+    ctx.fail(child.type() == pugi::node_element ? child : node, "<" + tag + "> takes no content");
   if (tag == "translate") {
     ctx.check_attributes(node, {"value", "x", "y", "z"});
     return glm::translate(glm::mat4(1.0f), ctx.parse_xyz(node, 0.0f, "<" + tag + ">"));
@@ -79,11 +82,13 @@ glm::mat4 parse_transform(const Context& ctx, const pugi::xml_node& node) {
 }
 
 bool is_invertible(const glm::mat4& m) {
-  glm::mat3 l(m);
-  float scale = glm::length(l[0]) * glm::length(l[1]) * glm::length(l[2]);
+  // In double: the product of three float lengths overflows a float (and
+  // their determinant too) for scales beyond about 1e12.
+  glm::dmat3 l(glm::mat3{m});
+  double scale = glm::length(l[0]) * glm::length(l[1]) * glm::length(l[2]);
   // |det| / product of column lengths is the volume of the unit-column
   // parallelepiped: 1 for orthogonal axes, 0 for a flat one, whatever the scale.
-  return scale > 0.0f && std::abs(glm::determinant(l)) > 1e-6f * scale;
+  return scale > 0.0 && std::abs(glm::determinant(l)) > 1e-6 * scale;
 }
 
 }  // namespace spm::xml

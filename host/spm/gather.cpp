@@ -1,6 +1,5 @@
 #include "spm/gather.h"
 
-#include <chrono>
 #include <cmath>
 #include <cstring>
 
@@ -67,14 +66,12 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
 }
 
 MapGrids::MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct) {
-  const auto start = std::chrono::steady_clock::now();
   const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct);
   const SphereGrid volume_grid = build_sphere_grid(positions(maps.volume), radius);
   const SphereGrid surface_grid = build_sphere_grid(positions(surface), radius);
   const auto volume_pos = volume_item_positions(volume_grid, maps.volume);
   const auto surface_pos = surface_item_positions(surface_grid, surface);
   const auto surface_flux = surface_item_flux(surface_grid, surface);
-  build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   volume_info_ = device.upload(std::vector<SpmGridInfo>{volume_grid.info});
   volume_start_ = device.upload(volume_grid.cell_start);
   volume_pos_ = device.upload(volume_pos);

@@ -29,12 +29,10 @@ class MapGrids {
   MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct);
 
   cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
-  double build_seconds() const { return build_seconds_; }
 
  private:
   cl::Buffer volume_info_, volume_start_, volume_pos_, volume_items_, volume_;
   cl::Buffer surface_info_, surface_start_, surface_pos_, surface_flux_;
-  double build_seconds_ = 0.0;
 };
 
 }  // namespace spm

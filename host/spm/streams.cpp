@@ -144,18 +144,19 @@ void StreamTracer::flush(PhotonMaps& maps) {
   device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
-PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings) {
-  StreamTracer tracer(device, scene, settings);
+PhotonMaps StreamTracer::trace(uint32_t pass, float width) {
+  settings_.pass = pass;
+  settings_.width = width;
   PhotonMaps maps;
-  maps.stats.batch_size = tracer.batch_capacity();
-  for (uint32_t first = 0; first < settings.streams; first += tracer.batch_capacity()) {
-    tracer.emit(first, std::min(tracer.batch_capacity(), settings.streams - first));
+  maps.stats.batch_size = capacity_;
+  for (uint32_t first = 0; first < settings_.streams; first += capacity_) {
+    emit(first, std::min(capacity_, settings_.streams - first));
     ++maps.stats.batches;
-    while (tracer.live() > 0) {
-      tracer.make_room(maps);
-      tracer.step();
+    while (live_ > 0) {
+      make_room(maps);
+      step();
     }
-    tracer.flush(maps);
+    flush(maps);
   }
   // Appends raced on the device; (stream, event[, photon]) is a total order
   // independent of it, so the maps and every sum over them are deterministic.
@@ -166,6 +167,10 @@ PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSett
     return std::tie(a.stream, a.event_photon) < std::tie(b.stream, b.event_photon);
   });
   return maps;
+}
+
+PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings) {
+  return StreamTracer(device, scene, settings).trace(settings.pass, settings.width);
 }
 
 }  // namespace spm

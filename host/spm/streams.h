@@ -40,13 +40,17 @@ struct PhotonMaps {
   StreamStats stats;
 };
 
-// Step-by-step propagation of one batch at a time; `trace_streams` drives it,
-// tests look inside.
+// Stream propagation on one device, batch by batch; trace() runs a whole
+// pass, tests drive emit/make_room/step/flush themselves to look inside.
 class StreamTracer {
  public:
   StreamTracer(Device& device, const GpuScene& scene, const StreamSettings& settings);
 
   uint32_t batch_capacity() const { return capacity_; }
+
+  // All N_s streams of pass `pass` with stream width `width`, batch by batch;
+  // the maps come back ordered. The tracer's buffers serve every pass.
+  PhotonMaps trace(uint32_t pass, float width);
 
   // Emits streams [first, first + count) of the pass (count <= capacity) and
   // places their associated photons in the disk around the origin.
@@ -88,7 +92,7 @@ class StreamTracer {
   cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_, compact_;
 };
 
-// All N_s streams of one pass, in batches sized to the device's memory.
+// All N_s streams of pass settings.pass, in batches sized to the device's memory.
 PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings);
 
 }  // namespace spm

@@ -33,27 +33,27 @@ inline float kernel_2d(uint kernel_type, float d2, float r2) {
  * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
  * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
  * *tests counts the records examined (the profile's sphere tests). */
-inline float3 beam_estimate(SpmGrid grid, const __global uint* items, const __global SpmVolumeRecord* records,
+inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
                             uint kernel_type, uint estimator, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
-  if (grid.info->records == 0 || !grid_walk_begin(grid.info, o, d, t0, t1, &walk)) return sum;
+  if (grid->info->records == 0 || !grid_walk_begin(grid->info, o, d, t0, t1, &walk)) return sum;
   const float r2 = r * r;
   const float3 sigma_t = load3(media[m].sigma_t);
   const float g = media[m].phase == SPM_PHASE_HG ? media[m].g : 0.0f;
   do {
-    const uint c = grid_cell_index(grid.info, walk.cell);
-    for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
+    const uint c = grid_cell_index(grid->info, walk.cell);
+    for (uint k = grid->cell_start[c]; k < grid->cell_start[c + 1]; ++k) {
       ++*tests;
-      const float3 x = grid.item_pos[k].xyz;
+      const float3 x = grid->item_pos[k].xyz;
       const float t = dot(x - o, d);
       if (t < t0 || t > t1) continue;
       const float3 closest = o + t * d;
       const float3 off = x - closest;
       const float d2 = dot(off, off);
       if (d2 >= r2) continue;
-      const int3 home = grid_cell_of(grid.info, closest);
+      const int3 home = grid_cell_of(grid->info, closest);
       if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
       const __global SpmVolumeRecord* rec = &records[items[k]];
       if (rec->medium != m) continue;
@@ -65,7 +65,7 @@ inline float3 beam_estimate(SpmGrid grid, const __global uint* items, const __gl
         sum += kernel_2d(kernel_type, d2, r2) * exp(-sigma_t * (t - t0)) * phase_hg(cos_theta, g) * flux;
       }
     }
-  } while (grid_walk_next(grid.info, &walk));
+  } while (grid_walk_next(grid->info, &walk));
   if (estimator == SPM_ESTIMATOR_PAPER) return sum / (SPM_PI * r2 * (t1 - t0));
   return sum * load3(media[m].albedo);
 }
@@ -83,14 +83,14 @@ inline float3 unpack_normal(uint bits) {
  * the same side, of K(d) phi. The grid holds only the records to use (with
  * next-event estimation, not those of streams without an earlier event);
  * item_flux[k] is the flux of item k's record. */
-inline float3 surface_estimate(SpmGrid grid, const __global float4* item_flux, float3 x, float3 n, float r,
+inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_flux, float3 x, float3 n, float r,
                                uint kernel_type) {
   float3 sum = (float3)(0.0f);
-  if (grid.info->records == 0) return sum;
+  if (grid->info->records == 0) return sum;
   const float r2 = r * r;
-  const uint c = grid_cell_index(grid.info, grid_cell_of(grid.info, x));
-  for (uint k = grid.cell_start[c]; k < grid.cell_start[c + 1]; ++k) {
-    const float4 p = grid.item_pos[k];
+  const uint c = grid_cell_index(grid->info, grid_cell_of(grid->info, x));
+  for (uint k = grid->cell_start[c]; k < grid->cell_start[c + 1]; ++k) {
+    const float4 p = grid->item_pos[k];
     const float3 off = p.xyz - x;
     const float h = dot(off, n);
     const float d3 = dot(off, off);

@@ -82,6 +82,8 @@ inline bool trace_closest(const __global SpmBvhNode* nodes, const __global SpmPr
                           float3 o, float3 d, float tmax, SpmHit* hit) {
   hit->t = tmax;
   hit->prim = SPM_NONE;
+  hit->u = 0.0f;
+  hit->v = 0.0f;
   if (num_prims == 0) return false;
   const float3 inv_d = 1.0f / d;
   uint stack[SPM_BVH_STACK];

@@ -1,0 +1,41 @@
+// One device's share of a render: the scene uploaded once, the stream tracer
+// and gather kernel kept across passes, and one pass at a time rendered to a
+// float image (METHOD.md 6: a pass is a full emit, propagate, grid, gather).
+#pragma once
+
+#include <vector>
+
+#include "device/device.h"
+#include "profile/profile.h"
+#include "render/render.h"
+#include "scene/gpu_scene.h"
+#include "spm/streams.h"
+
+namespace spm {
+
+struct PassOutput {
+  std::vector<float> rgb;  // pixels x 3, mean of the pass's samples
+  PassCounters counters;
+  double propagate_seconds = 0.0, grid_seconds = 0.0, gather_seconds = 0.0;
+};
+
+class PassRenderer {
+ public:
+  // `settings` as resolve_settings returned them.
+  PassRenderer(Device& device, const Scene& scene, const SceneTables& tables, const RenderSettings& settings);
+
+  // Renders pass `pass`; host stages go to `profiler` (if any) on `track`.
+  PassOutput render(int pass, Profiler* profiler, int track);
+
+ private:
+  Device& device_;
+  const Scene& scene_;
+  RenderSettings settings_;
+  GpuScene gpu_;
+  StreamTracer tracer_;
+  cl::Kernel gather_;
+  cl::Buffer film_, tests_;
+  cl_uint kernel_type_, estimator_, direct_;
+};
+
+}  // namespace spm
