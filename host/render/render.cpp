@@ -3,7 +3,6 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
-#include <map>
 #include <mutex>
 #include <thread>
 
@@ -71,26 +70,40 @@ Image render(const Scene& scene, const RenderSettings& settings, Device& device,
   return render(scene, settings, std::vector<Device*>{&device}, stats, progress, nullptr);
 }
 
-Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
-             RenderStats* stats, const Progress& progress, Profiler* profiler) {
+OrderedSum::OrderedSum(size_t values) : sum_(values, 0.0) {}
+
+void OrderedSum::add(int pass, std::vector<float> rgb) {
+  waiting_.emplace(pass, std::move(rgb));
+  for (auto it = waiting_.find(summed_); it != waiting_.end(); it = waiting_.find(summed_)) {
+    for (size_t i = 0; i < sum_.size(); ++i) sum_[i] += it->second[i];
+    waiting_.erase(it);
+    ++summed_;
+  }
+}
+
+Image OrderedSum::average(int width, int height) const {
+  if (summed_ == 0) throw RuntimeError("the render stopped before its first pass finished");
+  Image image;
+  image.width = width;
+  image.height = height;
+  image.rgb.resize(sum_.size());
+  for (size_t i = 0; i < sum_.size(); ++i) image.rgb[i] = static_cast<float>(sum_[i] / summed_);
+  return image;
+}
+
+RenderStats render_passes(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
+                          PassSlice slice, const PassSink& sink, Profiler* profiler) {
   const RenderSettings s = resolve_settings(scene, settings);
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);
-  const size_t pixels = size_t(s.width) * s.height;
   const bool timed = in.time > 0.0f && settings.passes == 0;
-  const auto start = std::chrono::steady_clock::now();
-  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  Timer clock;
+  double elapsed = 0.0;  // guarded by `mutex`, like everything the workers share
 
-  // Passes are handed out in order; finished ones wait in `done` until all
-  // earlier ones are summed, in double precision, so the sum's order is the
-  // pass order whatever the devices (METHOD.md 6).
   std::mutex mutex;
   std::atomic<int> next{0};
   std::atomic<bool> failed{false};
   std::exception_ptr error;
-  std::map<int, std::vector<float>> done;
-  std::vector<double> sum(pixels * 3, 0.0);
-  int summed = 0;
   RenderStats st;
   st.devices.resize(devices.size());
   const auto stopping = [&] { return failed.load() || (s.stop && s.stop->load()); };
@@ -103,8 +116,16 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
       PassRenderer renderer(device, scene, tables, s);
       for (;;) {
         if (stopping()) break;
-        const int pass = next++;
-        if (timed ? (pass > 0 && elapsed() >= in.time) : pass >= s.passes) break;
+        // This process's k-th pass is slice.offset + k slice.stride.
+        const int k = next++;
+        const int pass = slice.offset + k * slice.stride;
+        if (timed) {
+          std::lock_guard<std::mutex> lock(mutex);
+          elapsed += clock.lap();
+          if (k > 0 && elapsed >= in.time) break;
+        } else if (pass >= s.passes) {
+          break;
+        }
         Timer busy;
         PassOutput out = renderer.render(pass, profiler, int(d) + 1);
         if (profiler) {
@@ -121,13 +142,8 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
         st.gather_seconds += out.gather_seconds;
         st.camera_samples += out.counters.camera_samples;
         st.sphere_tests += out.counters.sphere_tests;
-        done.emplace(pass, std::move(out.rgb));
-        for (auto it = done.find(summed); it != done.end(); it = done.find(summed)) {
-          for (size_t i = 0; i < sum.size(); ++i) sum[i] += it->second[i];
-          done.erase(it);
-          ++summed;
-          if (progress) progress(summed, timed ? 0 : s.passes);
-        }
+        ++st.passes;
+        sink(pass, std::move(out.rgb));
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(mutex);
@@ -140,20 +156,30 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
   work(0);
   for (auto& t : threads) t.join();
   if (error) std::rethrow_exception(error);
-  if (summed == 0) throw RuntimeError("the render stopped before its first pass finished");
-
-  Image image;
-  image.width = s.width;
-  image.height = s.height;
-  image.rgb.resize(pixels * 3);
-  for (size_t i = 0; i < sum.size(); ++i) image.rgb[i] = static_cast<float>(sum[i] / summed);
-  st.passes = summed;
   st.interrupted = s.stop && s.stop->load();
-  st.seconds = elapsed();
+  st.seconds = elapsed + clock.lap();
   st.bvh_seconds = tables.bvh_seconds;
   for (Device* d : devices) st.build_seconds += d->build_seconds();
-  if (stats) *stats = st;
-  return image;
+  return st;
+}
+
+Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
+             RenderStats* stats, const Progress& progress, Profiler* profiler) {
+  const RenderSettings s = resolve_settings(scene, settings);
+  const bool timed = scene.integrator.time > 0.0f && settings.passes == 0;
+  OrderedSum sum(size_t(s.width) * s.height * 3);
+  const RenderStats st = render_passes(
+      scene, settings, devices, PassSlice{}, [&](int pass, std::vector<float>&& rgb) {
+        sum.add(pass, std::move(rgb));
+        if (progress) progress(sum.summed(), timed ? 0 : s.passes);
+      },
+      profiler);
+  if (stats) {
+    *stats = st;
+    // With a time budget, only the passes before the first unfinished one count.
+    stats->passes = sum.summed();
+  }
+  return sum.average(s.width, s.height);
 }
 
 }  // namespace spm

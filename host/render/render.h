@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,37 @@ float pass_radius(float r0, float alpha, int pass);
 
 // The stream propagation settings of pass `pass`.
 StreamSettings stream_settings(const Scene& scene, const RenderSettings& settings, int pass);
+
+// Sums pass images in pass order, whatever order they arrive in, in double
+// precision: the image then does not depend on which device or process
+// rendered which pass (METHOD.md 6). Not thread-safe.
+class OrderedSum {
+ public:
+  explicit OrderedSum(size_t values);
+  void add(int pass, std::vector<float> rgb);
+  int summed() const { return summed_; }  // passes 0 .. summed - 1 are in
+  Image average(int width, int height) const;
+
+ private:
+  std::vector<double> sum_;
+  std::map<int, std::vector<float>> waiting_;
+  int summed_ = 0;
+};
+
+// The passes one process renders: offset, offset + stride, ... (MPI ranks).
+struct PassSlice {
+  int offset = 0;
+  int stride = 1;
+};
+
+// Receives each finished pass's image (pixels x 3), one call at a time, in
+// no particular order.
+using PassSink = std::function<void(int pass, std::vector<float>&& rgb)>;
+
+// Renders the passes of `slice` on every device of `devices` at once, the next
+// pass going to whichever device is free; stats.passes counts the passes done.
+RenderStats render_passes(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
+                          PassSlice slice, const PassSink& sink, Profiler* profiler = nullptr);
 
 // Renders on every device of `devices` at once: the next pass goes to
 // whichever device is free, and passes are summed in pass order, so the image
