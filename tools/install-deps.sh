@@ -10,7 +10,7 @@ packages=(
   libopenexr-dev libglm-dev librandom123-dev libpugixml-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3
+  python3 python3-jsonschema
 )
 
 missing=()

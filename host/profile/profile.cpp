@@ -108,7 +108,7 @@ nlohmann::json Profiler::json() const {
        {{"camera_samples", camera_samples_},
         {"sphere_tests", sphere_tests_},
         {"sphere_tests_per_sample", camera_samples_ ? double(sphere_tests_) / camera_samples_ : 0.0}}}};
-  j["passes"] = passes_;
+  j["passes_detail"] = passes_;
   return j;
 }
 
