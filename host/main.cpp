@@ -18,6 +18,7 @@
 #include "bench/bench.h"
 #include "device/device.h"
 #include "film/image_io.h"
+#include "mpi/cluster.h"
 #include "profile/profile.h"
 #include "util/text_file.h"
 #include "render/render.h"
@@ -130,11 +131,17 @@ int cmd_render(const RenderArgs& a) {
     names += (names.empty() ? "" : ", ") + info.name;
   }
 
+  // With several MPI ranks, only rank 0 prints (the other ranks, errors only)
+  // and writes the image, profile and trace.
+  const spm::Cluster& cluster = spm::Cluster::get();
   const bool tty = ::isatty(STDERR_FILENO);
-  std::cerr << "spm: rendering " << a.scene << " at " << settings.width << "x" << settings.height << ", "
-            << (scene.integrator.time > 0 && a.settings.passes == 0 ? "for " + std::to_string(scene.integrator.time) + " s"
-                                                                     : std::to_string(settings.passes) + " pass(es)")
-            << " x " << settings.spp << " spp on " << names << "\n";
+  if (cluster.root()) {
+    std::cerr << "spm: rendering " << a.scene << " at " << settings.width << "x" << settings.height << ", "
+              << (scene.integrator.time > 0 && a.settings.passes == 0 ? "for " + std::to_string(scene.integrator.time) + " s"
+                                                                       : std::to_string(settings.passes) + " pass(es)")
+              << " x " << settings.spp << " spp on " << names
+              << (cluster.size() > 1 ? " (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)" : "") << "\n";
+  }
   const auto progress = [tty](int done, int total) {
     if (total == 0) {
       std::cerr << (tty ? "\r" : "") << "spm: pass " << done << " done" << (tty ? "" : "\n") << std::flush;
@@ -150,8 +157,10 @@ int cmd_render(const RenderArgs& a) {
   std::signal(SIGINT, on_sigint);
   spm::RenderStats stats;
   t = profiler.now();
-  const spm::Image image = spm::render(scene, settings, devices, &stats, progress, &profiler);
+  nlohmann::json rank_profiles;  // several MPI ranks: one profile per rank
+  const spm::Image image = spm::render_cluster(scene, settings, devices, &stats, progress, &profiler, &rank_profiles);
   profiler.stage("render", t, profiler.now());
+  if (!cluster.root()) return 0;
   std::signal(SIGINT, SIG_DFL);
   if (tty) std::cerr << "\n";
   if (stats.interrupted) {
@@ -186,16 +195,22 @@ int cmd_render(const RenderArgs& a) {
     j["resolution"] = {settings.width, settings.height};
     j["passes"] = stats.passes;
     j["seconds"] = stats.seconds;
-    for (size_t d = 0; d < stats.devices.size(); ++d) {
+    for (size_t d = 0; d < devices.size(); ++d) {  // this process's (rank 0's) devices come first
       j["devices"][d]["passes"] = stats.devices[d].passes;
       j["devices"][d]["busy_seconds"] = stats.devices[d].busy_seconds;
     }
+    if (!rank_profiles.is_null()) j["ranks"] = rank_profiles;
     spm::write_text(a.profile_json, j.dump(2) + "\n");
   }
   if (!a.trace.empty()) profiler.write_trace(a.trace);
   for (size_t d = 0; d < stats.devices.size(); ++d) {
-    std::fprintf(stderr, "spm: device %zu (%s): %d passes, busy %.2f s\n", d, stats.devices[d].name.c_str(),
-                 stats.devices[d].passes, stats.devices[d].busy_seconds);
+    if (cluster.size() > 1) {  // named "rank R device D (name)"
+      std::fprintf(stderr, "spm: %s: %d passes, busy %.2f s\n", stats.devices[d].name.c_str(),
+                   stats.devices[d].passes, stats.devices[d].busy_seconds);
+    } else {
+      std::fprintf(stderr, "spm: device %zu (%s): %d passes, busy %.2f s\n", d, stats.devices[d].name.c_str(),
+                   stats.devices[d].passes, stats.devices[d].busy_seconds);
+    }
   }
   std::fprintf(stderr, "spm: wrote %s and %s (%d passes in %.2f s; kernel build %.2f s, BVH %.3f s)\n",
                a.output.c_str(), png.c_str(), stats.passes, stats.seconds, stats.build_seconds, stats.bvh_seconds);
@@ -205,6 +220,8 @@ int cmd_render(const RenderArgs& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Under mpirun: MPI is initialised here; a failure on any rank ends every rank.
+  spm::Cluster& cluster = spm::Cluster::get(&argc, &argv);
   CLI::App app{"spm: streamed photon mapping in participating media, on OpenCL"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Help for every subcommand");
@@ -264,14 +281,18 @@ int main(int argc, char** argv) {
   spm::BenchOptions bench_options;
   std::string bench_device;
   auto* bench = app.add_subcommand(
-      "bench", "Time the paper's Fig. 3 configurations stage by stage: medians of --repeat one-pass renders");
+      "bench", "Time a fixed suite (Fig. 3 (a), (b), scaling in streams and associated photons) stage by stage and "
+      "kernel by kernel: medians of --repeat one-pass renders");
   bench->add_option("--scenes", bench_options.scenes_dir, "Directory holding cornell_fog.xml")
       ->check(CLI::ExistingDirectory);
   bench->add_option("--repeat", bench_options.repeat, "Timed repetitions after one warm-up")
       ->check(CLI::PositiveNumber);
   bench->add_option("--res", bench_options.resolution, "Square resolution")->check(CLI::Range(1, 16384));
   bench->add_option("--spp", bench_options.spp, "Camera samples per pixel")->check(CLI::PositiveNumber);
-  bench->add_option("--csv", bench_options.csv, "Also write the table as CSV");
+  bench->add_option("--csv", bench_options.csv, "Also write the results as CSV");
+  bench->add_option("--json", bench_options.json,
+                    "Also write the results as JSON, with per-kernel medians and occupancy (tools/plot_bench.py)");
+  bench->add_flag("--quick", bench_options.quick, "Fig. 3 (a) and (b) only, without the scaling cases");
   bench->add_option("--device", bench_device, "Device, as for render");
 
   try {
@@ -281,13 +302,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForAllHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "spm: " << e.what() << " (see --help)\n";
-    return spm::kExitInput;
+    std::cerr << cluster.prefix() << e.what() << " (see --help)\n";
+    return cluster.fail(spm::kExitInput);
   }
 
   try {
     if (*devices) return cmd_devices();
-    if (*render) return cmd_render(r);
+    if (*render) return cluster.finish(cmd_render(r));
     if (*bench) {
       spm::Device device(spm::select_device(bench_device), "");
       std::cerr << "spm: bench on " << device.info().name << "\n";
@@ -295,14 +316,14 @@ int main(int argc, char** argv) {
       return 0;
     }
   } catch (const spm::InputError& e) {
-    std::cerr << "spm: " << e.what() << "\n";
-    return spm::kExitInput;
+    std::cerr << cluster.prefix() << e.what() << "\n";
+    return cluster.fail(spm::kExitInput);
   } catch (const cl::Error& e) {
-    std::cerr << "spm: OpenCL error: " << spm::describe(e) << "\n";
-    return spm::kExitRuntime;
+    std::cerr << cluster.prefix() << "OpenCL error: " << spm::describe(e) << "\n";
+    return cluster.fail(spm::kExitRuntime);
   } catch (const std::exception& e) {
-    std::cerr << "spm: " << e.what() << "\n";
-    return spm::kExitRuntime;
+    std::cerr << cluster.prefix() << e.what() << "\n";
+    return cluster.fail(spm::kExitRuntime);
   }
   return 0;
 }

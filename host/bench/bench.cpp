@@ -1,11 +1,11 @@
 #include "bench/bench.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
-#include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "profile/profile.h"
 #include "render/render.h"
 #include "scene/loader.h"
 #include "util/errors.h"
@@ -15,14 +15,16 @@ namespace spm {
 
 namespace {
 
-struct Case {
+struct Config {
   const char* name;
   int streams;
   int associated;
 };
 
-// The paper's Fig. 3 configurations (METHOD.md 8).
-constexpr Case kSuite[] = {{"fig3a", 1000, 10}, {"fig3b", 10000, 100}};
+// The paper's Fig. 3 (METHOD.md 8), then scaling in streams at 10 associated
+// photons and in associated photons at 10,000 streams.
+constexpr Config kSuite[] = {{"fig3a", 1000, 10},      {"fig3b", 10000, 100},    {"s10k_a10", 10000, 10},
+                             {"s100k_a10", 100000, 10}};
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -30,54 +32,99 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+void write_outputs(const BenchOptions& o, const std::vector<BenchCase>& cases) {
+  std::vector<std::string> labels;
+  for (const auto& c : cases) {
+    for (const auto& [label, ms] : c.kernel_ms) {
+      if (std::find(labels.begin(), labels.end(), label) == labels.end()) labels.push_back(label);
+    }
+  }
+  if (!o.csv.empty()) {
+    std::ostringstream csv;
+    csv << "case,streams,associated,propagate_s,grid_s,gather_s,total_s,volume_records,surface_records";
+    for (const auto& l : labels) csv << "," << l << "_ms";
+    csv << "\n";
+    for (const auto& c : cases) {
+      csv << c.name << "," << c.streams << "," << c.associated << "," << c.propagate << "," << c.grid << ","
+          << c.gather << "," << c.total << "," << c.volume_records << "," << c.surface_records;
+      for (const auto& l : labels) csv << "," << (c.kernel_ms.count(l) ? c.kernel_ms.at(l) : 0.0);
+      csv << "\n";
+    }
+    write_text(o.csv, csv.str());
+  }
+  if (!o.json.empty()) {
+    nlohmann::json j;
+    j["repeat"] = o.repeat;
+    j["resolution"] = o.resolution;
+    j["spp"] = o.spp;
+    for (const auto& c : cases) {
+      j["cases"].push_back({{"name", c.name},
+                            {"streams", c.streams},
+                            {"associated", c.associated},
+                            {"propagate_s", c.propagate},
+                            {"grid_s", c.grid},
+                            {"gather_s", c.gather},
+                            {"total_s", c.total},
+                            {"kernel_ms", c.kernel_ms},
+                            {"live_per_iteration", c.live},
+                            {"volume_records", c.volume_records},
+                            {"surface_records", c.surface_records}});
+    }
+    write_text(o.json, j.dump(2) + "\n");
+  }
+}
+
 }  // namespace
 
-std::vector<BenchRow> run_bench(Device& device, const BenchOptions& o) {
+std::vector<BenchCase> run_bench(Device& device, const BenchOptions& o) {
   if (o.repeat < 1) throw InputError("--repeat", "must be at least 1");
   const std::string path = o.scenes_dir + "/cornell_fog.xml";
-  std::vector<BenchRow> rows;
-  for (const Case& c : kSuite) {
+  std::vector<BenchCase> cases;
+  for (const Config& c : kSuite) {
+    if (o.quick && std::string(c.name).rfind("fig3", 0) != 0) continue;
     Scene scene = load_scene(path, {{"res", std::to_string(o.resolution)}, {"spp", std::to_string(o.spp)}});
     scene.integrator.streams = c.streams;
     scene.integrator.associated = c.associated;
     RenderSettings settings;
     settings.passes = 1;
     std::vector<double> propagate, grid, gather, total;
+    std::map<std::string, std::vector<double>> kernels;
+    BenchCase out;
     for (int i = 0; i <= o.repeat; ++i) {
+      Profiler profiler(false);
       RenderStats st;
-      render(scene, settings, device, &st);
+      render(scene, settings, std::vector<Device*>{&device}, &st, {}, &profiler);
       if (i == 0) continue;  // warm-up: programs loaded, caches filled
       propagate.push_back(st.propagate_seconds);
       grid.push_back(st.grid_seconds);
       gather.push_back(st.gather_seconds);
       total.push_back(st.seconds);
+      for (const auto& [label, t] : profiler.kernels()) kernels[label].push_back(t.total_ms);
+      const auto j = profiler.json();
+      out.live = j["passes_detail"][0]["live_per_iteration"].get<std::vector<uint32_t>>();
+      out.volume_records = j["counters"]["records"]["volume"];
+      out.surface_records = j["counters"]["records"]["surface"];
     }
-    BenchRow row;
-    row.name = c.name;
-    row.streams = c.streams;
-    row.associated = c.associated;
-    row.propagate = median(propagate);
-    row.grid = median(grid);
-    row.gather = median(gather);
-    row.total = median(total);
-    rows.push_back(row);
+    out.name = c.name;
+    out.streams = c.streams;
+    out.associated = c.associated;
+    out.propagate = median(propagate);
+    out.grid = median(grid);
+    out.gather = median(gather);
+    out.total = median(total);
+    for (auto& [label, v] : kernels) out.kernel_ms[label] = median(v);
+    cases.push_back(out);
+    std::fprintf(stderr, "spm: bench %s done\n", c.name);
   }
-  std::printf("%-8s %8s %10s %12s %12s %12s %12s\n", "case", "streams", "associated", "propagate s", "grid s",
-              "gather s", "total s");
-  for (const auto& r : rows) {
-    std::printf("%-8s %8d %10d %12.3f %12.3f %12.3f %12.3f\n", r.name.c_str(), r.streams, r.associated, r.propagate,
-                r.grid, r.gather, r.total);
+  std::printf("%-10s %8s %10s %12s %10s %10s %10s %10s %10s\n", "case", "streams", "associated", "propagate s",
+              "grid s", "gather s", "total s", "volume", "surface");
+  for (const auto& r : cases) {
+    std::printf("%-10s %8d %10d %12.3f %10.3f %10.3f %10.3f %10llu %10llu\n", r.name.c_str(), r.streams,
+                r.associated, r.propagate, r.grid, r.gather, r.total,
+                static_cast<unsigned long long>(r.volume_records), static_cast<unsigned long long>(r.surface_records));
   }
-  if (!o.csv.empty()) {
-    std::ostringstream csv;
-    csv << "case,streams,associated,propagate_s,grid_s,gather_s,total_s\n";
-    for (const auto& r : rows) {
-      csv << r.name << "," << r.streams << "," << r.associated << "," << r.propagate << "," << r.grid << ","
-          << r.gather << "," << r.total << "\n";
-    }
-    write_text(o.csv, csv.str());
-  }
-  return rows;
+  write_outputs(o, cases);
+  return cases;
 }
 
 }  // namespace spm
