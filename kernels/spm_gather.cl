@@ -131,14 +131,17 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
 }
 
 __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global float4* film,
-                         __global uint* tests_out, uint spp, uint max_depth, uint seed, uint pass, float radius,
+                         __global uint* tests_out, __global uint* errors, uint first_pixel, uint count, uint spp, uint max_depth, uint seed, uint pass, float radius,
                          uint kernel_type, uint estimator, uint direct, const __global SpmGridInfo* volume_info,
                          const __global uint* volume_start, const __global float4* volume_pos,
                          const __global uint* volume_items, const __global SpmVolumeRecord* volume,
                          const __global SpmGridInfo* surface_info, const __global uint* surface_start,
                          const __global float4* surface_pos, const __global float4* surface_flux) {
-  const uint pixel = get_global_id(0);
-  if (pixel >= camera->width * camera->height) return;
+  /* A tile of `count` pixels from first_pixel: the film of a whole image may
+   * not fit one allocation. */
+  const uint item = get_global_id(0);
+  if (item >= count) return;
+  const uint pixel = first_pixel + item;
   const SpmScene s = SPM_SCENE;
   SpmMaps maps;
   maps.volume_grid.info = volume_info;
@@ -169,6 +172,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
     const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
     sum += radiance(&s, &maps, camera, o, d, tmin, tmax, max_depth, rng, &tests);
   }
-  film[pixel] = (float4)(sum / (float)spp, 1.0f);
-  tests_out[pixel] = tests;
+  /* A NaN or infinity is a bug to find, not a value to clamp: the host fails
+   * the render when this bit is set. */
+  if (!all(isfinite(sum))) atomic_or(errors, SPM_ERROR_NONFINITE);
+  film[item] = (float4)(sum / (float)spp, 1.0f);
+  tests_out[item] = tests;
 }

@@ -37,6 +37,7 @@ __kernel void spm_interact(SPM_SCENE_PARAMS, const __global uint* queue, uint co
   const float4 hit = st_hit[s];
   uint n = st_alive[s];
   uint act = 0;
+  if (!all(isfinite(st_phi[s].xyz))) atomic_or(&counters[SPM_COUNT_ERRORS], SPM_ERROR_NONFINITE);
 
   if (st_state[s] == SPM_EV_ESCAPE) {
     act = SPM_ACT_END;

@@ -54,8 +54,6 @@
 #define SPM_COUNT_EV_BLACK 10 /* absorbed at the black back of a one-sided surface */
 #define SPM_COUNTERS 16
 
-#define SPM_ERROR_VOLUME_OVERFLOW 1u
-#define SPM_ERROR_SURFACE_OVERFLOW 2u
 
 /* Safety caps (METHOD.md 3): a stream ends after this many medium events or
  * events in all; the host reports how many streams the caps ended. Events

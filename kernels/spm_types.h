@@ -20,6 +20,11 @@ typedef float spm_float;
 
 #define SPM_NONE 0xffffffffu
 
+/* Error bits kernels raise in an error word the host checks after each stage. */
+#define SPM_ERROR_VOLUME_OVERFLOW 1u  /* more volume records than the buffer holds */
+#define SPM_ERROR_SURFACE_OVERFLOW 2u /* more surface records than the buffer holds */
+#define SPM_ERROR_NONFINITE 4u        /* a NaN or infinite flux or radiance */
+
 /* Primitive kinds (SpmPrim.kind). */
 #define SPM_PRIM_TRIANGLE 0u
 #define SPM_PRIM_SPHERE 1u

@@ -139,6 +139,14 @@ cl::Kernel Device::kernel(const std::string& program, const std::string& name) {
   return cl::Kernel(it->second, name.c_str());
 }
 
+cl::Buffer Device::buffer(size_t bytes, const std::string& what, cl_mem_flags flags) {
+  if (bytes > info_.max_alloc) {
+    throw RuntimeError(what + " needs " + std::to_string(bytes) + " bytes, more than " + info_.name +
+                       " allocates at once (CL_DEVICE_MAX_MEM_ALLOC_SIZE = " + std::to_string(info_.max_alloc) + ")");
+  }
+  return cl::Buffer(context_, flags, bytes);
+}
+
 size_t Device::work_group_size(const cl::Kernel& kernel) const {
   const size_t max = kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(info_.device);
   const size_t multiple = kernel.getWorkGroupInfo<CL_KERNEL_PREFERRED_WORK_GROUP_SIZE_MULTIPLE>(info_.device);

@@ -65,11 +65,15 @@ class Device {
   // every kernel takes its item count and returns early past it.
   cl::Event launch(const std::string& label, cl::Kernel& kernel, size_t items);
 
+  // A device buffer of `bytes`, checked against the device's largest
+  // allocation first: RuntimeError naming `what` rather than a late failure.
+  cl::Buffer buffer(size_t bytes, const std::string& what, cl_mem_flags flags = CL_MEM_READ_WRITE);
+
   template <class T>
   cl::Buffer upload(const std::vector<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
     // A zero-sized buffer is invalid in OpenCL; empty tables get one element.
     const size_t bytes = sizeof(T) * (data.empty() ? 1 : data.size());
-    cl::Buffer b(context_, flags, bytes);
+    cl::Buffer b = buffer(bytes, "an upload", flags);
     if (!data.empty()) {
       cl::Event e;
       queue_.enqueueWriteBuffer(b, CL_TRUE, 0, sizeof(T) * data.size(), data.data(), nullptr, &e);

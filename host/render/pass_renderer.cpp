@@ -1,5 +1,6 @@
 #include "render/pass_renderer.h"
 
+#include <algorithm>
 #include <initializer_list>
 
 #include "spm/gather.h"
@@ -25,6 +26,18 @@ cl_uint code_of(const std::string& value, std::initializer_list<const char*> nam
 
 constexpr cl_uint kDirectNee = 0;
 
+// Pixels per gather launch at most: bounds the film buffer and a launch's length.
+constexpr size_t kMaxTile = size_t(1) << 22;
+
+// Pixels per gather launch: the whole image when its film fits the device's
+// largest allocation, kMaxTile and the memory budget (--device-memory).
+size_t gather_tile(const Device& device, const RenderSettings& s) {
+  const size_t per_pixel = sizeof(cl_float4) + sizeof(cl_uint);
+  size_t tile = std::min<size_t>({size_t(s.width) * s.height, device.info().max_alloc / sizeof(cl_float4), kMaxTile});
+  if (s.memory_budget) tile = std::min(tile, std::max<size_t>(1, s.memory_budget / per_pixel));
+  return tile;
+}
+
 }  // namespace
 
 PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables& tables,
@@ -35,8 +48,10 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       gpu_(device, tables),
       tracer_(device, gpu_, stream_settings(scene, settings, 0)),
       gather_(device.kernel("spm_gather", "spm_gather")),
-      film_(device.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * size_t(settings.width) * settings.height),
-      tests_(device.context(), CL_MEM_WRITE_ONLY, sizeof(cl_uint) * size_t(settings.width) * settings.height),
+      tile_(gather_tile(device, settings)),
+      film_(device.buffer(sizeof(cl_float4) * tile_, "the film", CL_MEM_WRITE_ONLY)),
+      tests_(device.buffer(sizeof(cl_uint) * tile_, "the gather counters", CL_MEM_WRITE_ONLY)),
+      errors_(device.buffer(sizeof(cl_uint), "the gather error word")),
       kernel_type_(code_of(scene.integrator.kernel, {"uniform", "epanechnikov"})),
       estimator_(code_of(scene.integrator.estimator, {"bre", "paper"})),
       direct_(code_of(scene.integrator.direct, {"nee", "photons"})) {}
@@ -66,15 +81,23 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   stage("grid", t);
 
   t = clock();
-  set_args(gather_, gpu_, gpu_.camera(), film_, tests_, cl_uint(s.spp), cl_uint(s.max_depth), cl_uint(s.seed),
-           cl_uint(pass), radius, kernel_type_, estimator_, direct_, grids);
-  device_.launch("gather", gather_, pixels);
-  const auto film = device_.download<cl_float4>(film_, pixels);
   out.rgb.resize(pixels * 3);
-  for (size_t i = 0; i < pixels; ++i) {
-    for (int c = 0; c < 3; ++c) out.rgb[3 * i + c] = film[i].s[c];
+  const cl_uint no_error = 0;
+  device_.queue().enqueueWriteBuffer(errors_, CL_FALSE, 0, sizeof no_error, &no_error);
+  for (size_t first = 0; first < pixels; first += tile_) {
+    const size_t count = std::min(tile_, pixels - first);
+    set_args(gather_, gpu_, gpu_.camera(), film_, tests_, errors_, cl_uint(first), cl_uint(count), cl_uint(s.spp),
+             cl_uint(s.max_depth), cl_uint(s.seed), cl_uint(pass), radius, kernel_type_, estimator_, direct_, grids);
+    device_.launch("gather", gather_, count);
+    const auto film = device_.download<cl_float4>(film_, count);
+    for (size_t i = 0; i < count; ++i) {
+      for (int c = 0; c < 3; ++c) out.rgb[3 * (first + i) + c] = film[i].s[c];
+    }
+    for (cl_uint n : device_.download<cl_uint>(tests_, count)) out.counters.sphere_tests += n;
   }
-  for (cl_uint n : device_.download<cl_uint>(tests_, pixels)) out.counters.sphere_tests += n;
+  if (device_.download<cl_uint>(errors_, 1)[0] & SPM_ERROR_NONFINITE) {
+    throw RuntimeError("gather, pass " + std::to_string(pass) + ": a pixel's radiance is NaN or infinite");
+  }
   out.gather_seconds = timer.lap();
   stage("gather", t);
 

@@ -34,7 +34,8 @@ class PassRenderer {
   GpuScene gpu_;
   StreamTracer tracer_;
   cl::Kernel gather_;
-  cl::Buffer film_, tests_;
+  size_t tile_ = 0;  // pixels per gather launch: the film of a tile fits one allocation
+  cl::Buffer film_, tests_, errors_;
   cl_uint kernel_type_, estimator_, direct_;
 };
 

@@ -21,7 +21,7 @@ uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
   const size_t budget = s.memory_budget ? s.memory_budget : std::min<size_t>(info.global_memory / 2, size_t(1) << 30);
   size_t n = budget / bytes_per_stream(s.associated);
   // The largest single buffer, the surface records, must fit one allocation.
-  n = std::min<size_t>(n, info.max_alloc / (2 * s.associated * sizeof(SpmSurfaceRecord)));
+  n = std::min<size_t>(n, info.max_alloc / (s.associated * sizeof(SpmSurfaceRecord)));
   // Per-photon kernels index (stream, photon) with 32-bit global ids.
   n = std::min<size_t>(n, (size_t(1) << 31) / s.associated);
   n = std::min<size_t>(n, s.streams);
@@ -42,14 +42,13 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   capacity_ = batch_size(device.info(), settings_);
   volume_capacity_ = 8 * capacity_;
   surface_capacity_ = capacity_ * settings_.associated;
-  auto& ctx = device.context();
-  state_ = StreamState(ctx, capacity_);
-  queue_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * capacity_);
-  queue_next_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * capacity_);
-  counters_buffer_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_uint) * SPM_COUNTERS);
-  photons_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(cl_float4) * capacity_ * settings_.associated);
-  volume_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(SpmVolumeRecord) * volume_capacity_);
-  surface_ = cl::Buffer(ctx, CL_MEM_READ_WRITE, sizeof(SpmSurfaceRecord) * surface_capacity_);
+  state_ = StreamState(device.context(), capacity_);
+  queue_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
+  queue_next_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
+  counters_buffer_ = device.buffer(sizeof(cl_uint) * SPM_COUNTERS, "the stream counters");
+  photons_ = device.buffer(sizeof(cl_float4) * capacity_ * settings_.associated, "the associated photons");
+  volume_ = device.buffer(sizeof(SpmVolumeRecord) * volume_capacity_, "the volume map buffer");
+  surface_ = device.buffer(sizeof(SpmSurfaceRecord) * surface_capacity_, "the surface map buffer");
   emit_ = device.kernel("spm_emit", "spm_emit");
   march_ = device.kernel("spm_march", "spm_march");
   interact_ = device.kernel("spm_interact", "spm_interact");
@@ -103,8 +102,13 @@ uint32_t StreamTracer::step() {
   device_.launch("compact", compact_, n);
   std::swap(queue_, queue_next_);
   read_counters();
-  if (counters_[SPM_COUNT_ERRORS] != 0) {
-    throw RuntimeError("stream map overflow (error bits " + std::to_string(counters_[SPM_COUNT_ERRORS]) +
+  const cl_uint errors = counters_[SPM_COUNT_ERRORS];
+  if (errors & SPM_ERROR_NONFINITE) {
+    throw RuntimeError("stream propagation, pass " + std::to_string(settings_.pass) +
+                       ": a stream's flux became NaN or infinite");
+  }
+  if (errors != 0) {
+    throw RuntimeError("stream map overflow (error bits " + std::to_string(errors) +
                        "): the host's capacity check failed");
   }
   live_ = counters_[SPM_COUNT_LIVE];
