@@ -1,7 +1,7 @@
 #include "spm/streams.h"
 
 #include <algorithm>
-#include <tuple>
+#include <utility>
 
 #include "util/errors.h"
 
@@ -31,6 +31,18 @@ uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
                        " bytes");
   }
   return static_cast<uint32_t>(n);
+}
+
+// Sorts records by a unique 64-bit key: sorting (key, index) pairs and then
+// moving each record once is several times faster than sorting the records.
+template <class Record, class Key>
+void sort_by_key(std::vector<Record>& records, Key key) {
+  std::vector<std::pair<uint64_t, uint32_t>> order(records.size());
+  for (size_t i = 0; i < records.size(); ++i) order[i] = {key(records[i]), static_cast<uint32_t>(i)};
+  std::sort(order.begin(), order.end());
+  std::vector<Record> sorted(records.size());
+  for (size_t i = 0; i < order.size(); ++i) sorted[i] = records[order[i].second];
+  records = std::move(sorted);
 }
 
 }  // namespace
@@ -164,12 +176,8 @@ PhotonMaps StreamTracer::trace(uint32_t pass, float width) {
   }
   // Appends raced on the device; (stream, event[, photon]) is a total order
   // independent of it, so the maps and every sum over them are deterministic.
-  std::sort(maps.volume.begin(), maps.volume.end(), [](const SpmVolumeRecord& a, const SpmVolumeRecord& b) {
-    return std::tie(a.stream, a.event) < std::tie(b.stream, b.event);
-  });
-  std::sort(maps.surface.begin(), maps.surface.end(), [](const SpmSurfaceRecord& a, const SpmSurfaceRecord& b) {
-    return std::tie(a.stream, a.event_photon) < std::tie(b.stream, b.event_photon);
-  });
+  sort_by_key(maps.volume, [](const SpmVolumeRecord& r) { return uint64_t(r.stream) << 32 | r.event; });
+  sort_by_key(maps.surface, [](const SpmSurfaceRecord& r) { return uint64_t(r.stream) << 32 | r.event_photon; });
   return maps;
 }
 
