@@ -46,6 +46,18 @@ TEST_F(Devices, SameDeviceSameSeedIsBitIdentical) {
   EXPECT_FALSE(same_pixels(spm::read_exr(path("a.exr")), spm::read_exr(path("c.exr"))));
 }
 
+TEST_F(Devices, WorkGroupSizeDoesNotChangeTheImage) {
+  // Random numbers are counted by (stream or pixel, event, purpose), never by
+  // work-item order (METHOD.md 7).
+  const std::string scene = write("s.xml", kScene);
+  const std::string args = " --spp 2 --passes 2 --streams 400 --associated 8 --res 16x12";
+  ASSERT_EQ(run("render " + scene + " -o " + path("a.exr") + args, "SPM_WORK_GROUP_SIZE=64").code, 0);
+  ASSERT_EQ(run("render " + scene + " -o " + path("b.exr") + args, "SPM_WORK_GROUP_SIZE=1").code, 0);
+  ASSERT_EQ(run("render " + scene + " -o " + path("c.exr") + args, "SPM_WORK_GROUP_SIZE=24").code, 0);
+  EXPECT_TRUE(same_pixels(spm::read_exr(path("a.exr")), spm::read_exr(path("b.exr"))));
+  EXPECT_TRUE(same_pixels(spm::read_exr(path("a.exr")), spm::read_exr(path("c.exr"))));
+}
+
 TEST_F(Devices, TwoDevicesGiveTheSingleDeviceImageBitForBit) {
   // PoCL exposes two CPU devices; passes go to whichever is free, and are
   // summed in pass order, so the split does not change a bit.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cstdlib>
 
 #include "device/cl_errors.h"
 #include "device/kernel_source.h"
@@ -108,6 +109,16 @@ std::vector<DeviceInfo> select_devices(const std::string& selector) {
 }
 
 Device::Device(const DeviceInfo& info, std::string kernel_dir) : info_(info), kernel_dir_(std::move(kernel_dir)) {
+  // SPM_WORK_GROUP_SIZE tunes (and the tests vary) the work-group size; the
+  // images must not depend on it (METHOD.md 7).
+  if (const char* env = std::getenv("SPM_WORK_GROUP_SIZE")) {
+    char* end = nullptr;
+    const unsigned long v = std::strtoul(env, &end, 10);
+    if (*end != 0 || v == 0) {
+      throw InputError("SPM_WORK_GROUP_SIZE", std::string("expected a positive number, got '") + env + "'");
+    }
+    preferred_group_ = v;
+  }
   context_ = cl::Context(info_.device);
   queue_ = cl::CommandQueue(context_, info_.device, CL_QUEUE_PROFILING_ENABLE);
 }
@@ -150,7 +161,7 @@ cl::Buffer Device::buffer(size_t bytes, const std::string& what, cl_mem_flags fl
 size_t Device::work_group_size(const cl::Kernel& kernel) const {
   const size_t max = kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(info_.device);
   const size_t multiple = kernel.getWorkGroupInfo<CL_KERNEL_PREFERRED_WORK_GROUP_SIZE_MULTIPLE>(info_.device);
-  size_t size = std::min<size_t>(64, max);
+  size_t size = std::min<size_t>(preferred_group_, max);
   if (multiple > 0 && size >= multiple) size -= size % multiple;
   return std::max<size_t>(size, 1);
 }

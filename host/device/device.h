@@ -110,6 +110,7 @@ class Device {
   std::map<std::string, cl::Program> programs_;
   std::vector<Launch> launches_;
   std::map<std::string, double> program_seconds_;
+  size_t preferred_group_ = 64;  // work-items per group, capped by each kernel's limit
   double build_seconds_ = 0.0;
 };
 
