@@ -144,6 +144,27 @@ TEST_F(Cli, DumpMapsWritesPlyPointClouds) {
   EXPECT_GT(ply_vertices(path("maps/m_surface.ply")), 0);
 }
 
+TEST_F(Cli, TimeBudgetRendersPassesUntilItIsSpent) {
+  // Functional, not a speed test: a pass of this scene takes milliseconds, so
+  // a 3 s budget holds many; the first pass always runs, however small the budget.
+  const std::string scene = write("tiny.xml", kTinyScene);
+  const std::string base = "render " + scene + " -o " + path("t.exr") + " --spp 1 --streams 50 --associated 2 ";
+  Outcome r = run(base + "--time 3");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto passes = [](const std::string& err) {
+    const auto at = err.find("spm: wrote ");
+    const auto open = err.find('(', at);
+    return std::stoi(err.substr(open + 1));
+  };
+  EXPECT_GE(passes(r.err), 2) << r.err;
+  r = run(base + "--time 0.000001");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(passes(r.err), 1) << r.err;
+  // A pass count given with it wins.
+  r = run(base + "--time 3 --passes 2");
+  EXPECT_EQ(passes(r.err), 2) << r.err;
+}
+
 TEST_F(Cli, HelpAndDevicesSucceed) {
   EXPECT_EQ(run("--help").code, 0);
   EXPECT_EQ(run("render --help").code, 0);

@@ -17,14 +17,16 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   if (s.width == 0) s.width = scene.camera.width;
   if (s.height == 0) s.height = scene.camera.height;
   if (s.spp == 0) s.spp = scene.camera.spp;
-  if (s.passes == 0) s.passes = scene.integrator.passes;
+  // A render for a time budget (integrator `time`, no pass count) keeps
+  // passes = 0: it renders passes until the budget is spent.
+  if (s.passes == 0 && !(scene.integrator.time > 0.0f)) s.passes = scene.integrator.passes;
   if (s.max_depth == 0) s.max_depth = scene.integrator.max_depth;
   if (s.width < 1 || s.height < 1 || s.width > 16384 || s.height > 16384) {
     throw InputError("--res", "resolution " + std::to_string(s.width) + "x" + std::to_string(s.height) +
                                   " is outside 1x1 .. 16384x16384");
   }
   if (s.spp < 1 || s.spp > 1 << 20) throw InputError("--spp", "samples per pixel must be in 1 .. 1048576");
-  if (s.passes < 1) throw InputError("--passes", "the number of passes must be at least 1");
+  if (s.passes < 0) throw InputError("--passes", "the number of passes must be at least 1");
   if (s.max_depth < 1 || s.max_depth > kMaxDepthLimit) {
     throw InputError(scene.integrator.where, "max_depth must be in 1 .. " + std::to_string(kMaxDepthLimit));
   }
@@ -96,7 +98,7 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
   const RenderSettings s = resolve_settings(scene, settings);
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);
-  const bool timed = in.time > 0.0f && settings.passes == 0;
+  const bool timed = s.passes == 0;
   Timer clock;
   double elapsed = 0.0;  // guarded by `mutex`, like everything the workers share
 
@@ -166,7 +168,7 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
 Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
              RenderStats* stats, const Progress& progress, Profiler* profiler) {
   const RenderSettings s = resolve_settings(scene, settings);
-  const bool timed = scene.integrator.time > 0.0f && settings.passes == 0;
+  const bool timed = s.passes == 0;
   OrderedSum sum(size_t(s.width) * s.height * 3);
   const RenderStats st = render_passes(
       scene, settings, devices, PassSlice{}, [&](int pass, std::vector<float>&& rgb) {

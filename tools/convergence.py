@@ -1,0 +1,235 @@
+#!/usr/bin/env python3
+"""Convergence of spm to a Mitsuba 3 reference, and an equal-time comparison
+with Mitsuba's volpath.
+
+1. Sweep: `spm render` for increasing pass counts (--passes), for each
+   estimator (--estimators, default bre and paper), at the reference's
+   resolution; relMSE (eps 1e-2) against the reference, against passes and
+   against seconds, as CSV and log-log plots.
+2. Equal time (--budgets, seconds): spm with the bre estimator, with as many
+   passes as the budget holds (from the sweep's seconds per pass), against
+   Mitsuba's volpath rendering chunks of samples for the same wall clock (the
+   scene's integrator replaced as tools/reference.py does, another seed than
+   the reference's), both judged against the reference; table (CSV and
+   markdown) and plot. Times are rendering times: spm's own "passes in X s"
+   (device set-up, kernel build and scene loading excluded) and Mitsuba's
+   render loop after a one-sample warm-up that compiles its kernels.
+
+Everything goes to --out (default BUILD/convergence/SCENE); --summary-dir
+copies the small plots and the markdown table there too (for the README).
+
+Example:
+  tools/convergence.py scenes/cornell_fog.xml \\
+      --reference tests/data/reference/cornell_fog.exr --passes 1,2,4,8,16,32 \\
+      --budgets 2,5,10,20
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.dont_write_bytecode = True  # no tools/__pycache__ in the work tree
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import reference  # noqa: E402
+
+RE_PASSES = re.compile(r"\((\d+) passes in ([0-9.]+) s")
+
+
+def run_spm(spm, scene, out, res, passes, estimator, seed, defines, extra, log):
+    cmd = [str(spm), "render", str(scene), "-o", str(out), "--png", str(Path(out).with_suffix(".png")),
+           "--res", f"{res[0]}x{res[1]}", "--passes", str(passes), "--estimator", estimator, "--seed", str(seed)]
+    for d in defines:
+        cmd += ["-D", d]
+    cmd += extra
+    t0 = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(f"convergence: {' '.join(cmd)} failed ({p.returncode}):\n{p.stderr}")
+    m = RE_PASSES.search(p.stderr)
+    if not m:
+        raise SystemExit(f"convergence: no '(N passes in X s)' in spm's output:\n{p.stderr}")
+    done, seconds = int(m.group(1)), float(m.group(2))
+    log(f"spm {estimator} {passes} passes: {seconds:.2f} s (process {wall:.2f} s)")
+    return {"passes": done, "seconds": seconds, "wall": wall, "command": " ".join(cmd)}
+
+
+def write_csv(path, rows, fields):
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
+        w.writeheader()
+        for r in rows:
+            w.writerow(r)
+
+
+def plot_sweep(rows, path, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(1, 2, figsize=(8, 3.3), dpi=80)
+    for est, style in (("bre", "o-"), ("paper", "s--")):
+        r = [x for x in rows if x["estimator"] == est]
+        if not r:
+            continue
+        ax[0].loglog([x["passes"] for x in r], [x["relmse"] for x in r], style, label=est)
+        ax[1].loglog([x["seconds"] for x in r], [x["relmse"] for x in r], style, label=est)
+    ax[0].set_xlabel("passes")
+    ax[1].set_xlabel("seconds (spm rendering)")
+    for a in ax:
+        a.set_ylabel("relMSE vs Mitsuba")
+        a.grid(True, which="both", alpha=0.3)
+        a.legend(fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def plot_equal_time(rows, path, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(4.2, 3.3), dpi=80)
+    ax.loglog([r["spm_seconds"] for r in rows], [r["spm_relmse"] for r in rows], "o-", label="spm (bre)")
+    ax.loglog([r["mitsuba_seconds"] for r in rows], [r["mitsuba_relmse"] for r in rows], "s--",
+              label="Mitsuba volpath")
+    ax.set_xlabel("seconds")
+    ax.set_ylabel("relMSE vs reference")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main() -> int:
+    if "-h" not in sys.argv and "--help" not in sys.argv:
+        reference.reexec_in_venv(reference.pre_parse_build_dir(sys.argv[1:]), os.path.abspath(__file__))
+    p = argparse.ArgumentParser(description="relMSE of spm against a Mitsuba reference for increasing pass "
+                                "counts (both estimators), and spm vs Mitsuba volpath at equal time.",
+                                epilog="Example:" + __doc__.split("Example:")[1],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("scene", type=Path)
+    p.add_argument("--reference", type=Path, required=True, help="reference EXR (tools/reference.py)")
+    p.add_argument("--build-dir", type=Path, default=reference.default_build_dir(),
+                   help="build directory: venv-mitsuba, and the default spm and --out (default: %(default)s)")
+    p.add_argument("--spm", type=Path, default=None, help="spm executable (default: BUILD/spm)")
+    p.add_argument("--out", type=Path, default=None, help="output directory (default: BUILD/convergence/SCENE)")
+    p.add_argument("--passes", default="1,2,4,8,16,32", help="pass counts of the sweep (default %(default)s)")
+    p.add_argument("--estimators", default="bre,paper", help="estimators of the sweep (default %(default)s)")
+    p.add_argument("--budgets", default="2,5,10,20",
+                   help="equal-time budgets in seconds; empty: no equal-time comparison (default %(default)s)")
+    p.add_argument("--seed", type=int, default=1, help="spm seed, and Mitsuba's base seed + 1000 (default 1)")
+    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                   help="scene default overrides for both renderers (repeatable)")
+    p.add_argument("--spm-arg", action="append", default=[], metavar="ARG",
+                   help="extra argument for spm render (repeatable, e.g. --spm-arg=--streams=20000)")
+    p.add_argument("--max-depth", type=int, default=64, help="Mitsuba volpath max_depth (default 64)")
+    p.add_argument("--summary-dir", type=Path, default=None,
+                   help="also copy the plots and the markdown table here as SCENE_*.png / SCENE_*.md")
+    args = p.parse_args()
+    log = lambda *a: print("convergence:", *a, file=sys.stderr, flush=True)  # noqa: E731
+
+    import numpy as np
+    import compare
+
+    name = args.scene.stem
+    out = args.out or args.build_dir / "convergence" / name
+    out.mkdir(parents=True, exist_ok=True)
+    spm = args.spm or args.build_dir / "spm"
+    ref = compare.load_exr(args.reference)
+    res = (ref.shape[1], ref.shape[0])
+    passes = [int(x) for x in args.passes.split(",") if x]
+    estimators = [x for x in args.estimators.split(",") if x]
+
+    # 1. Sweep.
+    rows = []
+    for est in estimators:
+        for n in passes:
+            exr = out / f"spm_{est}_{n:04d}.exr"
+            r = run_spm(spm, args.scene, exr, res, n, est, args.seed, args.defines, args.spm_arg, log)
+            m = compare.metrics(compare.load_exr(exr), ref)
+            rows.append({"estimator": est, **r, **{k: m[k] for k in ("relmse", "rmse", "mean_ratio_all")},
+                         "mean_r": m["mean"][0], "mean_g": m["mean"][1], "mean_b": m["mean"][2]})
+            log(f"  relMSE {m['relmse']:.5g}, mean ratio {m['mean_ratio_all']:.4f}")
+        compare.error_png(compare.load_exr(out / f"spm_{est}_{passes[-1]:04d}.exr"), ref,
+                          out / f"error_{est}_{passes[-1]}.png", titles=(f"spm {est}, {passes[-1]} passes",
+                                                                         "Mitsuba volpath"))
+        compare.error_png(compare.load_exr(out / f"spm_{est}_{passes[-1]:04d}.exr"), ref,
+                          out / f"diff_{est}_{passes[-1]}.png", signed=True,
+                          titles=(f"spm {est}, {passes[-1]} passes", "Mitsuba volpath"))
+    fields = ["estimator", "passes", "seconds", "wall", "relmse", "rmse", "mean_ratio_all", "mean_r", "mean_g",
+              "mean_b", "command"]
+    write_csv(out / "sweep.csv", rows, fields)
+    plot_sweep(rows, out / "convergence.png", f"{name}: spm vs Mitsuba volpath, {res[0]}x{res[1]}")
+    md = [f"# {name}: spm against Mitsuba volpath ({args.reference.name}, {res[0]}x{res[1]})", "",
+          "| estimator | passes | seconds | relMSE | mean ratio spm/ref |", "|---|---|---|---|---|"]
+    md += [f"| {r['estimator']} | {r['passes']} | {r['seconds']:.2f} | {r['relmse']:.4g} | "
+           f"{r['mean_ratio_all']:.4f} |" for r in rows]
+
+    # 2. Equal time.
+    budgets = [float(x) for x in args.budgets.split(",") if x]
+    et_rows = []
+    if budgets:
+        bre = [r for r in rows if r["estimator"] == "bre"] or [
+            {**run_spm(spm, args.scene, out / "spm_bre_calib.exr", res, 4, "bre", args.seed, args.defines,
+                       args.spm_arg, log)}]
+        longest = max(bre, key=lambda r: r["passes"])
+        per_pass = longest["seconds"] / longest["passes"]
+        import mitsuba as mi
+        defines = reference.parse_defines(args.defines)
+        text = reference.substitute_integrator(args.scene.read_text(), args.max_depth, 5)
+        variant = reference.pick_variant("auto", args.scene, text, defines, log)
+        scene = reference.load_scene(args.scene, text, defines)
+        scene_spp = int(scene.sensors()[0].sampler().sample_count())
+        film = [int(v) for v in scene.sensors()[0].film().size()]
+        if film != list(res):
+            raise SystemExit(f"convergence: Mitsuba's film is {film[0]}x{film[1]} but the reference is "
+                             f"{res[0]}x{res[1]}: pass -D res=...")
+        reference.render(scene, 1, 999, 1, 0.0, lambda *a: None)  # compile the kernels
+        for b in budgets:
+            n = max(1, int(round(b / per_pass)))
+            exr = out / f"equal_spm_{b:g}s.exr"
+            r = run_spm(spm, args.scene, exr, res, n, "bre", args.seed + 100, args.defines, args.spm_arg, log)
+            ms = compare.metrics(compare.load_exr(exr), ref)
+            chunk = max(1, min(scene_spp, 4096))
+            img, spp_done, secs = reference.render(scene, 0, args.seed + 1000, chunk, b, lambda *a: None)
+            mm = compare.metrics(img.astype(np.float64), ref)
+            log(f"budget {b:g} s: spm {r['passes']} passes {r['seconds']:.2f} s relMSE {ms['relmse']:.4g}; "
+                f"Mitsuba {spp_done} spp {secs:.2f} s relMSE {mm['relmse']:.4g}")
+            reference.write_exr(out / f"equal_mitsuba_{b:g}s.exr", img)
+            et_rows.append({"budget": b, "spm_passes": r["passes"], "spm_seconds": r["seconds"],
+                            "spm_relmse": ms["relmse"], "spm_mean_ratio": ms["mean_ratio_all"],
+                            "mitsuba_spp": spp_done, "mitsuba_seconds": secs, "mitsuba_relmse": mm["relmse"],
+                            "mitsuba_mean_ratio": mm["mean_ratio_all"], "variant": variant})
+        write_csv(out / "equal_time.csv", et_rows, list(et_rows[0].keys()))
+        plot_equal_time(et_rows, out / "equal_time.png", f"{name} {res[0]}x{res[1]}: equal time")
+        md += ["", f"Equal time (spm bre vs Mitsuba {mi.__version__} volpath, {variant}, 2 cores):", "",
+               "| budget s | spm passes | spm s | spm relMSE | Mitsuba spp | Mitsuba s | Mitsuba relMSE |",
+               "|---|---|---|---|---|---|---|"]
+        md += [f"| {r['budget']:g} | {r['spm_passes']} | {r['spm_seconds']:.2f} | {r['spm_relmse']:.4g} | "
+               f"{r['mitsuba_spp']} | {r['mitsuba_seconds']:.2f} | {r['mitsuba_relmse']:.4g} |" for r in et_rows]
+    (out / "summary.md").write_text("\n".join(md) + "\n")
+    (out / "summary.json").write_text(json.dumps({"sweep": rows, "equal_time": et_rows}, indent=2) + "\n")
+    print("\n".join(md))
+    if args.summary_dir:
+        import shutil
+        args.summary_dir.mkdir(parents=True, exist_ok=True)
+        shutil.copy(out / "convergence.png", args.summary_dir / f"{name}_convergence.png")
+        if et_rows:
+            shutil.copy(out / "equal_time.png", args.summary_dir / f"{name}_equal_time.png")
+        shutil.copy(out / "summary.md", args.summary_dir / f"{name}_summary.md")
+    log(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
