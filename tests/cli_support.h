@@ -13,6 +13,24 @@
 
 namespace spm::test {
 
+// Fog, a glass sphere and a diffuse floor around a point light: every stream
+// and gather path of the renderer in a scene small enough for a simulator.
+inline const char* kFogGlassScene = R"(<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="45"/>
+    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+  </sensor>
+  <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.3"/><float name="albedo" value="0.8"/></medium>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform>
+    <ref name="exterior" id="fog"/></shape>
+  <shape type="sphere"><point name="center" x="0.5" y="0.5" z="0"/><float name="radius" value="0.4"/>
+    <bsdf type="dielectric"/><ref name="exterior" id="fog"/></shape>
+  <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="5"/>
+    <ref id="fog"/></emitter>
+</scene>
+)";
+
 struct Outcome {
   int code;
   std::string err;

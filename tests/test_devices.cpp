@@ -12,23 +12,7 @@ namespace {
 
 using Devices = spm::test::CliTest;
 
-// Fog, a glass sphere and a diffuse floor around a point light: every stream
-// and gather path of the renderer in a scene small enough for a simulator.
-const char* kScene = R"(<scene version="3.0.0">
-  <sensor type="perspective">
-    <float name="fov" value="45"/>
-    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
-  </sensor>
-  <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.3"/><float name="albedo" value="0.8"/></medium>
-  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform>
-    <ref name="exterior" id="fog"/></shape>
-  <shape type="sphere"><point name="center" x="0.5" y="0.5" z="0"/><float name="radius" value="0.4"/>
-    <bsdf type="dielectric"/><ref name="exterior" id="fog"/></shape>
-  <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="5"/>
-    <ref id="fog"/></emitter>
-</scene>
-)";
+using spm::test::kFogGlassScene;
 
 bool same_pixels(const spm::Image& a, const spm::Image& b) {
   return a.width == b.width && a.height == b.height &&
@@ -36,7 +20,7 @@ bool same_pixels(const spm::Image& a, const spm::Image& b) {
 }
 
 TEST_F(Devices, SameDeviceSameSeedIsBitIdentical) {
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", kFogGlassScene);
   const std::string args = " --spp 2 --passes 3 --streams 400 --associated 8 --res 16x12";
   ASSERT_EQ(run("render " + scene + " -o " + path("a.exr") + args + " --seed 5").code, 0);
   ASSERT_EQ(run("render " + scene + " -o " + path("b.exr") + args + " --seed 5").code, 0);
@@ -49,7 +33,7 @@ TEST_F(Devices, SameDeviceSameSeedIsBitIdentical) {
 TEST_F(Devices, WorkGroupSizeDoesNotChangeTheImage) {
   // Random numbers are counted by (stream or pixel, event, purpose), never by
   // work-item order (METHOD.md 7).
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", kFogGlassScene);
   const std::string args = " --spp 2 --passes 2 --streams 400 --associated 8 --res 16x12";
   ASSERT_EQ(run("render " + scene + " -o " + path("a.exr") + args, "SPM_WORK_GROUP_SIZE=64").code, 0);
   ASSERT_EQ(run("render " + scene + " -o " + path("b.exr") + args, "SPM_WORK_GROUP_SIZE=1").code, 0);
@@ -61,7 +45,7 @@ TEST_F(Devices, WorkGroupSizeDoesNotChangeTheImage) {
 TEST_F(Devices, TwoDevicesGiveTheSingleDeviceImageBitForBit) {
   // PoCL exposes two CPU devices; passes go to whichever is free, and are
   // summed in pass order, so the split does not change a bit.
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", kFogGlassScene);
   const std::string args = " --spp 2 --passes 6 --streams 400 --associated 8 --res 16x12";
   ASSERT_EQ(run("render " + scene + " -o " + path("one.exr") + args).code, 0);
   const auto two = run("render " + scene + " -o " + path("two.exr") + args + " --device all",
@@ -74,7 +58,7 @@ TEST_F(Devices, TwoDevicesGiveTheSingleDeviceImageBitForBit) {
 }
 
 TEST_F(Devices, DeviceListsAreValidated) {
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", kFogGlassScene);
   EXPECT_EQ(run("render " + scene + " -o " + path("o.exr") + " --device 0:0,0:0").code, 2);
   EXPECT_EQ(run("render " + scene + " -o " + path("o.exr") + " --device 0:0,7:7").code, 2);
 }
@@ -85,7 +69,7 @@ TEST_F(Devices, OclgrindFindsNoDataRaceAndMatchesPocl) {
   // (measured: max relative difference 7e-7; the bound is 1e-4 of each pixel
   // plus 1e-6). Its --uninitialized check crashes inside oclgrind 21.10 on
   // these kernels (README, Tests), so it is not used here.
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", kFogGlassScene);
   const std::string args = " --spp 2 --streams 200 --associated 4";
   const auto sim = run("render " + scene + " -o " + path("sim.exr") + args, "oclgrind --data-races");
   ASSERT_EQ(sim.code, 0) << sim.err;

@@ -14,21 +14,7 @@ namespace {
 using Profile = spm::test::CliTest;
 using nlohmann::json;
 
-const char* kScene = R"(<scene version="3.0.0">
-  <sensor type="perspective">
-    <float name="fov" value="45"/>
-    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="16"/></film>
-  </sensor>
-  <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.3"/><float name="albedo" value="0.8"/></medium>
-  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform>
-    <ref name="exterior" id="fog"/></shape>
-  <shape type="sphere"><point name="center" x="0.5" y="0.5" z="0"/><float name="radius" value="0.4"/>
-    <bsdf type="dielectric"/><ref name="exterior" id="fog"/></shape>
-  <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="5"/>
-    <ref id="fog"/></emitter>
-</scene>
-)";
+using spm::test::kFogGlassScene;
 
 json read_json(const std::string& path) {
   std::ifstream in(path);
@@ -47,8 +33,8 @@ long ply_vertices(const std::string& file) {
 class ProfiledRender : public Profile {
  protected:
   void render(const std::string& extra) {
-    const std::string scene = write("s.xml", kScene);
-    const auto r = run("render " + scene + " -o " + path("o.exr") + " --spp 2 --streams 300 --associated 8 " +
+    const std::string scene = write("s.xml", kFogGlassScene);
+    const auto r = run("render " + scene + " -o " + path("o.exr") + " --res 24x16 --spp 2 --streams 300 --associated 8 " +
                        "--profile-json " + path("p.json") + " --trace " + path("t.json") + " " + extra);
     ASSERT_EQ(r.code, 0) << r.err;
     profile_ = read_json(path("p.json"));
