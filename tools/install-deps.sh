@@ -10,6 +10,8 @@ packages=(
   libopenexr-dev libglm-dev librandom123-dev libpugixml-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  openmpi-bin libopenmpi-dev
+  clang-14 libclang-rt-14-dev
   python3 python3-jsonschema
 )
 

@@ -22,6 +22,9 @@ std::string read_text_file(const std::string& path, const std::string& where, co
   std::error_code ec;
   if (!fs::exists(path, ec)) throw InputError(where, what + " '" + path + "' does not exist");
   if (fs::is_directory(path, ec)) throw InputError(where, what + " '" + path + "' is a directory, not a file");
+  // A device such as /dev/zero never ends; pipes (e.g. <(...)) are fine.
+  if (fs::is_character_file(path, ec) || fs::is_block_file(path, ec))
+    throw InputError(where, what + " '" + path + "' is a device, not a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(where, "cannot read " + what + " '" + path + "': " + std::strerror(errno));
   std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};

@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Fuzzes the scene parser with libFuzzer (clang-14, AddressSanitizer and
+# UndefinedBehaviorSanitizer):
+#
+#   tools/fuzz.sh [SECONDS] [TARGET]
+#
+# SECONDS (default 60) of fuzz_scene (the XML loader, default) or fuzz_obj
+# (the OBJ reader). Configures and builds build-fuzz/ (SPM_FUZZ_BUILD_DIR
+# overrides it), seeds a corpus from scenes/*.xml and tests/data (a copy: the
+# source tree is never written), and keeps what the fuzzer finds in
+# build-fuzz/corpus-TARGET/ for the next run. Exits non-zero on a finding (a
+# crash, a sanitizer report, a leak, a hang of more than 10 s per input, an
+# exception other than spm::InputError) and saves the input that caused it
+# under build-fuzz/findings/. The fuzzer's output is in build-fuzz/fuzz-TARGET.log.
+#
+# A long run: tools/fuzz.sh 3600 fuzz_scene && tools/fuzz.sh 3600 fuzz_obj
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+fail() {
+  echo "fuzz.sh: $*" >&2
+  exit 1
+}
+
+seconds="${1:-60}"
+target="${2:-fuzz_scene}"
+[[ "$seconds" =~ ^[0-9]+$ && "$seconds" -gt 0 ]] || fail "SECONDS must be a positive whole number, got '$seconds'"
+case "$target" in
+  fuzz_scene) pattern='*.xml' dict=tests/fuzz/scene.dict ;;
+  fuzz_obj) pattern='*.obj' dict=tests/fuzz/obj.dict ;;
+  *) fail "unknown target '$target' (fuzz_scene or fuzz_obj)" ;;
+esac
+build="${SPM_FUZZ_BUILD_DIR:-build-fuzz}"
+
+# The project's packages, then clang-14 with libFuzzer (Debian: clang-14 and
+# libclang-rt-14-dev), installed the way tools/install-deps.sh installs.
+bash tools/install-deps.sh >/dev/null || fail "tools/install-deps.sh failed"
+missing=()
+for p in clang-14 libclang-rt-14-dev; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  { $sudo apt-get update && $sudo apt-get install -y --no-install-recommends "${missing[@]}"; } >/dev/null ||
+    fail "cannot install ${missing[*]} (needed for clang++-14 -fsanitize=fuzzer)"
+fi
+
+mkdir -p "$build"
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang-14 \
+  -DCMAKE_CXX_COMPILER=clang++-14 -DSPM_FUZZ=ON -DSPM_BUILD_TESTS=OFF >"$build/configure.log" 2>&1 ||
+  fail "configuring $build failed (see $build/configure.log)"
+cmake --build "$build" --target "$target" -j2 >"$build/build-$target.log" 2>&1 ||
+  fail "building $target failed (see $build/build-$target.log)"
+
+# Seeds: a fresh copy of the files each run; the corpus the fuzzer grows
+# lives on between runs.
+seeds="$build/seeds-$target"
+corpus="$build/corpus-$target"
+findings="$build/findings"
+rm -rf "$seeds"
+mkdir -p "$seeds" "$corpus" "$findings"
+# (tests/data/fuzz holds the inputs of earlier findings, regression tests now.)
+find scenes tests/data -type f -name "$pattern" -exec cp -t "$seeds" {} +
+[ -n "$(ls -A "$seeds")" ] || fail "no seed files ($pattern) found"
+
+log="$build/fuzz-$target.log"
+before=$(ls "$findings" | wc -l)
+status=0
+"$build/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+  -dict="$dict" -artifact_prefix="$findings/$target-" "$corpus" "$seeds" >"$log" 2>&1 </dev/null || status=$?
+if [ "$status" -ne 0 ]; then
+  found=$(ls -t "$findings" | head -n 1)
+  if [ "$(ls "$findings" | wc -l)" -gt "$before" ] && [ -n "$found" ]; then
+    fail "$target found a bug: input saved as $findings/$found (reproduce: $build/$target $findings/$found; log $log)"
+  fi
+  fail "$target exited with status $status and saved no input (see $log)"
+fi
+runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
+echo "fuzz.sh: $target: no finding in ${seconds} s (${runs:-?} inputs; corpus $corpus: $(ls "$corpus" | wc -l) files)"
