@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "scene/bvh.h"
+#include "scene/light_power.h"
 #include "util/errors.h"
 
 namespace spm {
@@ -28,45 +29,6 @@ double triangle_area(const SpmPrim& p) {
 
 double prim_area(const SpmPrim& p) {
   return p.kind == SPM_PRIM_SPHERE ? 4.0 * kPi * double(p.p1[0]) * double(p.p1[0]) : triangle_area(p);
-}
-
-// Integral over the sphere of Mitsuba's spot falloff: 2 pi int falloff(theta) sin(theta).
-double spot_solid_angle(double cutoff, double beam) {
-  const int steps = 4096;
-  double sum = 0.0;
-  for (int i = 0; i < steps; ++i) {
-    const double theta = (i + 0.5) * cutoff / steps;
-    const double f = theta <= beam ? 1.0 : (cutoff - theta) / (cutoff - beam);
-    sum += f * std::sin(theta);
-  }
-  return 2.0 * kPi * sum * cutoff / steps;
-}
-
-// light_power() in double precision: a tiny or huge light neither underflows
-// nor overflows on the way (the loader refuses lights whose power does not
-// fit a float, with the same computation).
-glm::dvec3 light_power_double(const Scene& scene, const Light& light) {
-  switch (light.type) {
-    case Light::Type::Point:
-      return 4.0 * kPi * glm::dvec3(light.intensity);
-    case Light::Type::Spot:
-      return glm::dvec3(light.intensity) *
-             spot_solid_angle(glm::radians(double(light.cutoff_angle)), glm::radians(double(light.beam_width)));
-    case Light::Type::Area:
-    default: {
-      const Shape& s = scene.shapes[light.shape];
-      double area = 0.0;
-      if (s.kind == Shape::Kind::Sphere) {
-        area = 4.0 * kPi * double(s.radius) * double(s.radius);
-      } else {
-        for (const auto& t : s.triangles) {
-          const glm::dvec3 a(s.positions[t.x]), b(s.positions[t.y]), c(s.positions[t.z]);
-          area += 0.5 * glm::length(glm::cross(b - a, c - a));
-        }
-      }
-      return kPi * area * glm::dvec3(light.radiance);
-    }
-  }
 }
 
 SpmCamera make_camera(const Camera& c, int width, int height) {
@@ -108,8 +70,6 @@ SpmCamera make_camera(const Camera& c, int width, int height) {
 }
 
 }  // namespace
-
-glm::vec3 light_power(const Scene& scene, const Light& light) { return glm::vec3(light_power_double(scene, light)); }
 
 SceneTables flatten_scene(const Scene& scene, int width, int height) {
   SceneTables t;
@@ -182,7 +142,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
   std::vector<double> powers;
   for (const auto& l : scene.lights) {
     SpmLight g{};
-    const glm::dvec3 power = light_power_double(scene, l);
+    const glm::dvec3 power = light_power(scene, l);
     g.power = static_cast<float>((power.x + power.y + power.z) / 3.0);
     g.medium = l.medium;
     // The loader refuses these already; kept for scenes built in code.

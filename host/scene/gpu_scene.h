@@ -29,10 +29,6 @@ struct SceneTables {
 // scene cannot be rendered (no light with positive power, ...).
 SceneTables flatten_scene(const Scene& scene, int width, int height);
 
-// Emitted power of a light in the file's RGB (METHOD.md 2): area pi A L_e,
-// point 4 pi I, spot I times its falloff profile integrated over the sphere.
-glm::vec3 light_power(const Scene& scene, const Light& light);
-
 class GpuScene {
  public:
   GpuScene(Device& device, const SceneTables& tables);

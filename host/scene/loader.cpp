@@ -7,6 +7,7 @@
 #include <iostream>
 #include <utility>
 
+#include "scene/light_power.h"
 #include "scene/obj.h"
 #include "scene/xml_context.h"
 #include "scene/xml_props.h"
@@ -433,54 +434,25 @@ class Loader {
   // A light the renderer cannot pick, with no power (zero radiance or
   // intensity, zero area) or more than a float holds, is refused here, at its
   // element, before anything is rendered. The power is the one lights are
-  // picked by (light_power() in gpu_scene.cpp, the mean over RGB), computed
-  // the same way, in double precision and then rounded to float.
+  // picked by (scene/light_power.h, the mean over RGB), rounded to float.
   void check_power(const Light& light) const {
     const bool area = light.type == Light::Type::Area;
-    const glm::dvec3 emitted(area ? light.radiance : light.intensity);
     const char* what = area ? "radiance" : "intensity";
-    const double mean = (emitted.x + emitted.y + emitted.z) / 3.0;
-    if (!(mean > 0.0)) throw InputError(light.where, std::string("light emits no power: its ") + what + " is zero");
-    double extent = 0.0;  // area times pi, or the solid angle of a point or spot light
-    const char* extent_name = "area";
-    if (area) {
-      extent = kPi * shape_area(scene_.shapes.at(static_cast<size_t>(light.shape)));
-    } else if (light.type == Light::Type::Point) {
-      extent = 4.0 * kPi;
-    } else {
-      extent = spot_solid_angle(light.cutoff_angle * kPi / 180.0, light.beam_width * kPi / 180.0);
-      extent_name = "cone (cutoff_angle)";
+    const glm::dvec3 emitted(area ? light.radiance : light.intensity);
+    if (!((emitted.x + emitted.y + emitted.z) / 3.0 > 0.0)) {
+      throw InputError(light.where, std::string("light emits no power: its ") + what + " is zero");
     }
-    const float power = static_cast<float>(mean * extent);
-    if (!(extent > 0.0) || !(power > 0.0f))
-      throw InputError(light.where, std::string("light emits no power: its ") + extent_name + " is zero or too small");
+    const double extent = light_extent(scene_, light);
+    const glm::dvec3 rgb = light_power(scene_, light);
+    const float power = static_cast<float>((rgb.x + rgb.y + rgb.z) / 3.0);
+    if (!(extent > 0.0) || !(power > 0.0f)) {
+      throw InputError(light.where, std::string("light emits no power: its ") +
+                                        (area ? "area" : light.type == Light::Type::Spot ? "cone (cutoff_angle)" : "extent") +
+                                        " is zero or too small");
+    }
     if (!std::isfinite(power))
       throw InputError(light.where, "light power overflows a 32-bit float: reduce its " + std::string(what) +
                                         (area ? " or its shape's size" : ""));
-  }
-
-  static constexpr double kPi = 3.14159265358979323846;
-
-  static double shape_area(const Shape& s) {
-    if (s.kind == Shape::Kind::Sphere) return 4.0 * kPi * double(s.radius) * double(s.radius);
-    double area = 0.0;
-    for (const glm::uvec3& t : s.triangles) {
-      const glm::dvec3 a(s.positions[t.x]), b(s.positions[t.y]), c(s.positions[t.z]);
-      area += 0.5 * glm::length(glm::cross(b - a, c - a));
-    }
-    return area;
-  }
-
-  // Mitsuba's spot falloff integrated over the sphere, as gpu_scene.cpp does.
-  static double spot_solid_angle(double cutoff, double beam) {
-    const int steps = 4096;
-    double sum = 0.0;
-    for (int i = 0; i < steps; ++i) {
-      const double theta = (i + 0.5) * cutoff / steps;
-      const double f = theta <= beam ? 1.0 : (cutoff - theta) / (cutoff - beam);
-      sum += f * std::sin(theta);
-    }
-    return 2.0 * kPi * sum * cutoff / steps;
   }
 
   // ---- bsdfs --------------------------------------------------------------

@@ -1,0 +1,53 @@
+#include "scene/light_power.h"
+
+#include <cmath>
+
+namespace spm {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double shape_area(const Shape& s) {
+  if (s.kind == Shape::Kind::Sphere) return 4.0 * kPi * double(s.radius) * double(s.radius);
+  double area = 0.0;
+  for (const glm::uvec3& t : s.triangles) {
+    const glm::dvec3 a(s.positions[t.x]), b(s.positions[t.y]), c(s.positions[t.z]);
+    area += 0.5 * glm::length(glm::cross(b - a, c - a));
+  }
+  return area;
+}
+
+// 2 pi int falloff(theta) sin(theta) dtheta for Mitsuba's spot profile: 1 inside
+// beam_width, falling linearly in angle to 0 at cutoff (midpoint rule).
+double spot_solid_angle(double cutoff, double beam) {
+  const int steps = 4096;
+  double sum = 0.0;
+  for (int i = 0; i < steps; ++i) {
+    const double theta = (i + 0.5) * cutoff / steps;
+    const double f = theta <= beam ? 1.0 : (cutoff - theta) / (cutoff - beam);
+    sum += f * std::sin(theta);
+  }
+  return 2.0 * kPi * sum * cutoff / steps;
+}
+
+}  // namespace
+
+double light_extent(const Scene& scene, const Light& light) {
+  switch (light.type) {
+    case Light::Type::Point:
+      return 4.0 * kPi;
+    case Light::Type::Spot:
+      return spot_solid_angle(double(light.cutoff_angle) * kPi / 180.0, double(light.beam_width) * kPi / 180.0);
+    case Light::Type::Area:
+    default:
+      return kPi * shape_area(scene.shapes.at(static_cast<size_t>(light.shape)));
+  }
+}
+
+glm::dvec3 light_power(const Scene& scene, const Light& light) {
+  const glm::vec3 emitted = light.type == Light::Type::Area ? light.radiance : light.intensity;
+  return glm::dvec3(emitted) * light_extent(scene, light);
+}
+
+}  // namespace spm
