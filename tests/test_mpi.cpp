@@ -30,23 +30,6 @@ class Mpi : public spm::test::CliTest {
   }
 };
 
-// The scene of test_devices.cpp: fog, a glass sphere and a floor.
-const char* kScene = R"(<scene version="3.0.0">
-  <sensor type="perspective">
-    <float name="fov" value="45"/>
-    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
-  </sensor>
-  <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.3"/><float name="albedo" value="0.8"/></medium>
-  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform>
-    <ref name="exterior" id="fog"/></shape>
-  <shape type="sphere"><point name="center" x="0.5" y="0.5" z="0"/><float name="radius" value="0.4"/>
-    <bsdf type="dielectric"/><ref name="exterior" id="fog"/></shape>
-  <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="5"/>
-    <ref id="fog"/></emitter>
-</scene>
-)";
-
 const std::string kArgs = " --spp 2 --passes 6 --streams 400 --associated 8 --res 16x12";
 
 // Empty when the test can run, else why not.
@@ -69,7 +52,7 @@ bool same_pixels(const spm::Image& a, const spm::Image& b) {
 
 TEST_F(Mpi, TwoRanksGiveTheOneProcessImageBitForBit) {
   if (const std::string why = why_skip(); !why.empty()) GTEST_SKIP() << why;
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", spm::test::kFogGlassScene);
   const auto one = run("render " + scene + " -o " + path("one.exr") + kArgs);
   ASSERT_EQ(one.code, 0) << one.err;
   const auto two = run("render " + scene + " -o " + path("two.exr") + kArgs + " --profile-json " + path("p.json"),
@@ -100,7 +83,7 @@ TEST_F(Mpi, TimeBudgetKeepsThePassesBeforeTheFirstMissingOne) {
   // Each rank renders its passes (rank r: r, r + 2, ...) for the budget; the
   // image holds passes 0 .. P - 1 with P the first pass no rank finished.
   if (const std::string why = why_skip(); !why.empty()) GTEST_SKIP() << why;
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", spm::test::kFogGlassScene);
   const auto out = run("render " + scene + " -o " + path("t.exr") +
                            " --spp 2 --streams 400 --associated 8 --res 16x12 --time 1.5 --profile-json " +
                            path("p.json"),
@@ -116,7 +99,7 @@ TEST_F(Mpi, TimeBudgetKeepsThePassesBeforeTheFirstMissingOne) {
 
 TEST_F(Mpi, AFailureOnAnyRankEndsEveryRankWithoutAHang) {
   if (const std::string why = why_skip(); !why.empty()) GTEST_SKIP() << why;
-  const std::string scene = write("s.xml", kScene);
+  const std::string scene = write("s.xml", spm::test::kFogGlassScene);
   const std::string rank1 = " : -np 1 " + std::string(SPM_BINARY) + " render " + scene + " -o " + path("o.exr") + kArgs;
 
   // Rank 0 cannot write its image (the directory is a file) after rank 1 is done.

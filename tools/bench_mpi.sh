@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # MPI benchmark: the same total passes rendered by one process and by 2 MPI
-# ranks on this machine. Prints the median of RUNS runs of each configuration:
-# the whole command's wall clock and the renderer's own "passes in X s", and
-# checks that every configuration wrote the same image, bit for bit.
+# ranks on this machine. Prints the median of RUNS runs of each configuration
+# (rounds interleave the configurations): the whole command's wall clock, the
+# renderer's own "passes in X s", the CPU time (user + system) of every
+# process of the command, and the speed-up in wall clock over one process;
+# checks that every configuration wrote the same image, bit for bit. Needs
+# bash, awk and Open MPI's mpirun only.
 #
 #   tools/bench_mpi.sh                        # Fig. 3 (a) settings, 8 passes
 #   PASSES=4 tools/bench_mpi.sh -D streams=10000 -D associated=100   # Fig. 3 (b)
@@ -41,14 +44,18 @@ echo "bench_mpi: $SCENE, $PASSES passes, $* ; $RUNS runs each after a warm-up; $
 
 # Rounds interleave the configurations, so that a change in the machine's
 # load between rounds reaches every configuration alike.
-declare -A wall inner
+# bash's `time` gives the wall clock and the CPU time of every process the
+# command started (mpirun's ranks included).
+declare -A wall cpu inner
+TIMEFORMAT='%R %U %S'
 for run in $(seq "$RUNS"); do
   for i in "${!names[@]}"; do
-    start=$(date +%s.%N)
     # shellcheck disable=SC2086
-    ${launchers[$i]} "$SPM" render "$SCENE" -o "$OUT/c$i.exr" --passes "$PASSES" "$@" 2>"$OUT/c$i.log"
-    end=$(date +%s.%N)
-    wall[$i]+="$(awk -v a="$start" -v b="$end" 'BEGIN { print b - a }') "
+    times=$( { time ${launchers[$i]} "$SPM" render "$SCENE" -o "$OUT/c$i.exr" --passes "$PASSES" "$@" \
+                 2>"$OUT/c$i.log"; } 2>&1 )
+    read -r real user sys <<<"$times"
+    wall[$i]+="$real "
+    cpu[$i]+="$(awk -v a="$user" -v b="$sys" 'BEGIN { print a + b }') "
     inner[$i]+="$(sed -n 's/.*passes in \([0-9.]*\) s.*/\1/p' "$OUT/c$i.log") "
     if [ "$i" -gt 0 ] && ! cmp -s "$OUT/c0.exr" "$OUT/c$i.exr"; then
       echo "bench_mpi: ${names[$i]} wrote another image than one process" >&2
@@ -57,15 +64,17 @@ for run in $(seq "$RUNS"); do
   done
 done
 
-printf '%-32s %10s %10s %9s   %s\n' configuration "wall s" "passes s" speedup "(wall s of each run)"
+printf '%-32s %8s %10s %8s %9s   %s\n' configuration "wall s" "passes s" "CPU s" speedup "(wall s of each run)"
 base=""
 for i in "${!names[@]}"; do
   # shellcheck disable=SC2086
   w=$(printf '%s\n' ${wall[$i]} | median)
   # shellcheck disable=SC2086
   p=$(printf '%s\n' ${inner[$i]} | median)
+  # shellcheck disable=SC2086
+  c=$(printf '%s\n' ${cpu[$i]} | median)
   [ -n "$base" ] || base=$w
-  printf '%-32s %10.2f %10.2f %8.2fx   (%s)\n' "${names[$i]}" "$w" "$p" \
+  printf '%-32s %8.2f %10.2f %8.2f %8.2fx   (%s)\n' "${names[$i]}" "$w" "$p" "$c" \
     "$(awk -v a="$base" -v b="$w" 'BEGIN { print a / b }')" "$(printf '%.2f ' ${wall[$i]} | sed 's/ $//')"
 done
 echo "bench_mpi: every configuration wrote the same image; load after: $(cut -d' ' -f1-3 /proc/loadavg)"

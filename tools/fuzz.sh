@@ -71,7 +71,7 @@ status=0
 "$build/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
   -dict="$dict" -artifact_prefix="$findings/$target-" "$corpus" "$seeds" >"$log" 2>&1 </dev/null || status=$?
 if [ "$status" -ne 0 ]; then
-  found=$(ls -t "$findings" | head -n 1)
+  found=$(ls -t "$findings" | head -n 1 || true)
   if [ "$(ls "$findings" | wc -l)" -gt "$before" ] && [ -n "$found" ]; then
     fail "$target found a bug: input saved as $findings/$found (reproduce: $build/$target $findings/$found; log $log)"
   fi
