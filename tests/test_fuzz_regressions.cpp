@@ -91,6 +91,26 @@ TEST(FuzzRegressions, ObjIndexBeyondIntIsRefusedAtItsLine) {
       << message;
 }
 
+// fuzz_obj (tests/data/fuzz/fuzz_obj-vw-joint-overflow.obj): tinyobjloader
+// read the joint id of a "vw" (skin weight) line, 1e38, into an int, which is
+// undefined behaviour. Lines the renderer does not use no longer reach it:
+// a mesh with such lines, bad ones included, loads as its faces say.
+TEST(FuzzRegressions, ObjLinesTheRendererDoesNotUseNeverReachTinyobjloader) {
+  const std::string obj =
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nvw 0 1e38 1\nt crease 99999999999/0/0\nl 1 2\np 7\nusemtl x\nf 1 2 3\n";
+  try {
+    const ObjMesh mesh = parse_obj(obj, "extra.obj", true, "s.xml:1");
+    EXPECT_EQ(mesh.triangles.size(), 1u);
+    EXPECT_EQ(mesh.positions.size(), 3u);
+  } catch (const InputError& e) {
+    ADD_FAILURE() << e.what();
+  }
+  // Texture coordinates are checked like positions, at their line.
+  EXPECT_NE(refusal([&] { parse_obj("v 0 0 0\nvt 0.5 1e39\n", "vt.obj", true, "s.xml:1"); })
+                .find("vt.obj:2: malformed or non-finite texture coordinate '1e39'"),
+            std::string::npos);
+}
+
 // Found while writing the bad-input tests: in float, a mesh scaled by 1e13
 // overflowed the singularity test of its to_world (refused as "singular"),
 // and one scaled by 1e-13 underflowed the zero-area test of its triangles

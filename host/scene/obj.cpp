@@ -40,22 +40,27 @@ std::vector<std::string> words(const std::string& s) {
   return out;
 }
 
-// A whole word as a finite decimal number (tinyobjloader reads no other form).
-bool parse_number(const std::string& word, double& out) {
+// A whole word as a decimal number that a float holds (tinyobjloader reads
+// no other form, into floats).
+bool parse_number(const std::string& word) {
   for (char c : word)
     if (!std::isdigit(static_cast<unsigned char>(c)) && c != '+' && c != '-' && c != '.' && c != 'e' && c != 'E')
       return false;
   const char* begin = word.c_str();
   char* end = nullptr;
-  out = std::strtod(begin, &end);
-  return !word.empty() && end == begin + word.size() && std::isfinite(out);
+  const double v = std::strtod(begin, &end);
+  return !word.empty() && end == begin + word.size() && std::abs(v) <= std::numeric_limits<float>::max();
 }
 
 // Checks every vertex and face line before tinyobjloader reads the text, so
 // that a corrupt file is refused at its line: tinyobjloader names the line of
 // some errors only, skips some bad faces with a warning or none (an index out
 // of range in a polygon), reads a malformed number as 0, and an index beyond
-// int's range is undefined behaviour in its atoi. Lines are split as
+// int's range is undefined behaviour in its atoi. tinyobjloader then gets
+// only the lines the renderer uses (v, vn, vt, f): its readers of the others
+// (its vw skin weights, t tags, l and p elements, materials) are undefined
+// behaviour on some bad input (fuzz_obj found one), and their content is
+// dropped anyway. Lines are split as
 // tinyobjloader splits them ("\n", "\r\n" or "\r"; the text of a line ends at
 // a NUL byte; trailing blanks dropped), and a directive is its first word,
 // after leading blanks, when more follows.
@@ -74,20 +79,35 @@ class ObjChecker {
     });
     size_t seen[3] = {0, 0, 0};  // defined so far, for relative (negative) indices
     scan([&](size_t line, const std::string& directive, const std::string& rest) {
-      if (directive == "v" || directive == "vn") {
+      if (directive == "v" || directive == "vn" || directive == "vt") {
+        // v: x y z, then w or r g b; vn: x y z; vt: u, v, w.
         std::vector<std::string> w = words(rest);
-        double x = 0.0;
-        const char* what = directive == "v" ? "vertex position" : "vertex normal";
-        if (w.size() < 3) fail_(line, std::string("a ") + what + " needs 3 numbers, got " + std::to_string(w.size()));
-        for (size_t i = 0; i < 3; ++i)
-          if (!parse_number(w[i], x)) fail_(line, std::string("malformed or non-finite ") + what + " '" + w[i] + "'");
-        ++seen[directive == "v" ? 0 : 2];
-      } else if (directive == "vt") {
-        ++seen[1];
+        const char* what = directive == "v" ? "vertex position" : directive == "vn" ? "vertex normal" : "texture coordinate";
+        const size_t least = directive == "vt" ? 1 : 3;
+        if (w.size() < least)
+          fail_(line, std::string("a ") + what + " needs " + std::to_string(least) + " numbers, got " +
+                          std::to_string(w.size()));
+        for (const std::string& word : w)
+          if (!parse_number(word)) fail_(line, std::string("malformed or non-finite ") + what + " '" + word + "'");
+        ++seen[directive == "v" ? 0 : directive == "vt" ? 1 : 2];
       } else if (directive == "f") {
         check_face(line, rest, seen);
       }
     });
+  }
+
+  // The text with only the v, vn, vt and f lines, the others emptied (so that
+  // line numbers stay), for tinyobjloader.
+  std::string used_lines() const {
+    std::string out;
+    size_t last = 0;
+    scan([&](size_t line, const std::string& directive, const std::string& rest) {
+      if (directive != "v" && directive != "vn" && directive != "vt" && directive != "f") return;
+      out.append(line - 1 - last, '\n');
+      out += directive + rest + "\n";
+      last = line;
+    });
+    return out;
   }
 
  private:
@@ -174,14 +194,15 @@ class ObjChecker {
 
 ObjMesh parse_obj(const std::string& text, const std::string& name, bool vertex_normals, const std::string& where) {
   auto fail = [&](const std::string& problem) -> void { throw InputError(where, "OBJ file " + name + ": " + problem); };
-  ObjChecker(text, [&](size_t line, const std::string& problem) {
+  ObjChecker checker(text, [&](size_t line, const std::string& problem) {
     throw InputError(where, "OBJ file " + name + ":" + std::to_string(line) + ": " + problem);
-  }).run();
+  });
+  checker.run();
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;
   std::vector<tinyobj::material_t> materials;
   std::string warn, err;
-  std::istringstream in(text);
+  std::istringstream in(checker.used_lines());
   // No material reader: the renderer takes materials from the scene file, so
   // mtllib lines are not followed.
   if (!tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &in, nullptr, true, false)) fail(first_line(err));
