@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -41,7 +42,8 @@ class CliTest : public ::testing::Test {
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     dir_ = std::filesystem::temp_directory_path() /
-           ("spm_" + std::string(info->test_suite_name()) + "_" + std::string(info->name()));
+           ("spm_" + std::to_string(::getpid()) + "_" + std::string(info->test_suite_name()) + "_" +
+            std::string(info->name()));
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
   }

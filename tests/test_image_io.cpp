@@ -1,5 +1,6 @@
 // EXR round trip and the PNG preview's encoding.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <random>
@@ -17,7 +18,7 @@ TEST(ImageIo, ExrRoundTripIsExact) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(-1.0f, 1e4f);
   for (int i = 0; i < img.width * img.height * 3; ++i) img.rgb.push_back(u(rng));
-  const fs::path dir = fs::temp_directory_path() / "spm_test_exr";
+  const fs::path dir = fs::temp_directory_path() / ("spm_test_exr_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string path = (dir / "round.exr").string();
   spm::write_exr(path, img);
