@@ -32,20 +32,9 @@ case "$target" in
 esac
 build="${SPM_FUZZ_BUILD_DIR:-build-fuzz}"
 
-# The project's packages, then clang-14 with libFuzzer (Debian: clang-14 and
-# libclang-rt-14-dev), installed the way tools/install-deps.sh installs.
+# The project's packages, clang-14 with libFuzzer (clang-14 and
+# libclang-rt-14-dev) among them.
 bash tools/install-deps.sh >/dev/null || fail "tools/install-deps.sh failed"
-missing=()
-for p in clang-14 libclang-rt-14-dev; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo="sudo"
-  export DEBIAN_FRONTEND=noninteractive
-  { $sudo apt-get update && $sudo apt-get install -y --no-install-recommends "${missing[@]}"; } >/dev/null ||
-    fail "cannot install ${missing[*]} (needed for clang++-14 -fsanitize=fuzzer)"
-fi
 
 mkdir -p "$build"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang-14 \
