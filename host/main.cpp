@@ -174,12 +174,7 @@ int cmd_render(const RenderArgs& a) {
   spm::write_png(png, image);
   profiler.stage("image_write", t, profiler.now());
 
-  profiler.add_value("bvh_build_s", stats.bvh_seconds);
-  for (size_t d = 0; d < devices.size(); ++d) {
-    for (const auto& [program, seconds] : devices[d]->program_build_seconds()) {
-      profiler.add_value("program_build_s." + std::to_string(d) + "." + program, seconds);
-    }
-  }
+  spm::add_build_values(profiler, stats, devices);
   if (a.profile) {
     spm::print_kernel_table(std::cout, profiler.kernels());
     std::printf("stages: propagate %.3f s, grid build %.3f s, gather %.3f s; passes %.3f s in all\n",

@@ -4,6 +4,10 @@
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <utility>
 
 #include "cli_support.h"
 #include "film/image_io.h"
@@ -48,13 +52,34 @@ TEST_F(Devices, TwoDevicesGiveTheSingleDeviceImageBitForBit) {
   const std::string scene = write("s.xml", kFogGlassScene);
   const std::string args = " --spp 2 --passes 6 --streams 400 --associated 8 --res 16x12";
   ASSERT_EQ(run("render " + scene + " -o " + path("one.exr") + args).code, 0);
-  const auto two = run("render " + scene + " -o " + path("two.exr") + args + " --device all",
+  const auto two = run("render " + scene + " -o " + path("two.exr") + args + " --device all --profile-json " +
+                           path("two.json"),
                        "POCL_DEVICES='pthread pthread'");
   ASSERT_EQ(two.code, 0) << two.err;
   // Both devices did passes.
   EXPECT_NE(two.err.find("device 0 ("), std::string::npos) << two.err;
   EXPECT_NE(two.err.find("device 1 ("), std::string::npos) << two.err;
   EXPECT_TRUE(same_pixels(spm::read_exr(path("one.exr")), spm::read_exr(path("two.exr"))));
+
+  // The two devices are one model: each program is compiled from the source
+  // once, and the other device loads that binary (the image above is then
+  // also the check that the binary computes what the source does).
+  std::ifstream in(path("two.json"));
+  const nlohmann::json host = nlohmann::json::parse(in).at("host");
+  std::map<std::string, std::pair<int, int>> programs;  // source builds, binary loads
+  for (const auto& [key, value] : host.items()) {
+    for (const bool from_binary : {false, true}) {
+      const std::string kind = from_binary ? "program_binary_s." : "program_build_s.";
+      if (key.rfind(kind, 0) != 0) continue;
+      const std::string program = key.substr(key.find('.', kind.size()) + 1);  // after "<device>."
+      auto& [source, binary] = programs[program];
+      ++(from_binary ? binary : source);
+    }
+  }
+  EXPECT_GE(programs.size(), 8u);
+  for (const auto& [program, counts] : programs) {
+    EXPECT_EQ(counts, std::make_pair(1, 1)) << program << ": (source builds, binary loads)";
+  }
 }
 
 TEST_F(Devices, DeviceListsAreValidated) {

@@ -1,5 +1,6 @@
 // OpenCL devices: enumeration, selection, one context + profiling queue per
-// device, program builds from the embedded kernel sources, labelled launches.
+// device, program builds from the embedded kernel sources (compiled once per
+// device model in a process), labelled launches.
 #pragma once
 
 #include <CL/opencl.hpp>
@@ -57,7 +58,9 @@ class Device {
   cl::CommandQueue& queue() { return queue_; }
 
   // The kernel `name` of program `program` (kernels/<program>.cl), building the
-  // program on first use. A build failure throws RuntimeError with the log.
+  // program on first use: from the source, or from the binary another device
+  // of the same model built in this process. A build failure throws
+  // RuntimeError with the log.
   cl::Kernel kernel(const std::string& program, const std::string& name);
 
   // Enqueues `kernel` over `items` work-items: the global size is padded to a
@@ -95,9 +98,14 @@ class Device {
 
   size_t work_group_size(const cl::Kernel& kernel) const;
   double build_seconds() const { return build_seconds_; }
-  // Seconds each program took to build: about a second cold, a few
-  // hundredths when PoCL's (or the driver's) kernel cache hits.
-  const std::map<std::string, double>& program_build_seconds() const { return program_seconds_; }
+
+  struct ProgramBuild {
+    // About a second from the source cold, a few hundredths when PoCL's (or
+    // the driver's) kernel cache hits or the binary is reused.
+    double seconds = 0.0;
+    bool from_binary = false;  // built from another device's binary
+  };
+  const std::map<std::string, ProgramBuild>& program_builds() const { return program_builds_; }
 
   // The launches since the last call, for the profile.
   std::vector<Launch> take_launches() { return std::exchange(launches_, {}); }
@@ -109,7 +117,7 @@ class Device {
   cl::CommandQueue queue_;
   std::map<std::string, cl::Program> programs_;
   std::vector<Launch> launches_;
-  std::map<std::string, double> program_seconds_;
+  std::map<std::string, ProgramBuild> program_builds_;
   size_t preferred_group_ = 64;  // work-items per group, capped by each kernel's limit
   double build_seconds_ = 0.0;
 };

@@ -136,14 +136,7 @@ json settings_json(const RenderSettings& s) {
 // for --profile-json included) plus the rank and its host.
 json rank_profile(const Cluster& c, const Scene& scene, const RenderSettings& s, const RenderStats& st,
                   const std::vector<Device*>& devices, Profiler* profiler) {
-  if (profiler) {
-    profiler->add_value("bvh_build_s", st.bvh_seconds);
-    for (size_t d = 0; d < devices.size(); ++d) {
-      for (const auto& [program, seconds] : devices[d]->program_build_seconds()) {
-        profiler->add_value("program_build_s." + std::to_string(d) + "." + program, seconds);
-      }
-    }
-  }
+  if (profiler) add_build_values(*profiler, st, devices);
   json j = profiler ? profiler->json() : json::object();
   j["rank"] = c.rank();
   j["hostname"] = c.host();

@@ -165,6 +165,17 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
   return st;
 }
 
+void add_build_values(Profiler& profiler, const RenderStats& stats, const std::vector<Device*>& devices) {
+  profiler.add_value("bvh_build_s", stats.bvh_seconds);
+  for (size_t d = 0; d < devices.size(); ++d) {
+    for (const auto& [program, build] : devices[d]->program_builds()) {
+      profiler.add_value(std::string(build.from_binary ? "program_binary_s." : "program_build_s.") +
+                             std::to_string(d) + "." + program,
+                         build.seconds);
+    }
+  }
+}
+
 Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
              RenderStats* stats, const Progress& progress, Profiler* profiler) {
   const RenderSettings s = resolve_settings(scene, settings);

@@ -104,6 +104,11 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
 // Renders on every device of `devices` at once: the next pass goes to
 // whichever device is free, and passes are summed in pass order, so the image
 // does not depend on the split (METHOD.md 6-7). `profiler` may be null.
+// The profile's host figures that are not timed stages: the BVH build and
+// each device's program builds, program_build_s.<device>.<program> from the
+// source and program_binary_s.<device>.<program> from another device's binary.
+void add_build_values(Profiler& profiler, const RenderStats& stats, const std::vector<Device*>& devices);
+
 Image render(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
              RenderStats* stats = nullptr, const Progress& progress = {}, Profiler* profiler = nullptr);
 
