@@ -92,8 +92,9 @@ TEST_F(Devices, OclgrindFindsNoDataRaceAndMatchesPocl) {
   // oclgrind runs every kernel on a simulator with its own compiler: no data
   // race may be reported, and the image must match PoCL's to float rounding
   // (measured: max relative difference 7e-7; the bound is 1e-4 of each pixel
-  // plus 1e-6). Its --uninitialized check crashes inside oclgrind 21.10 on
-  // these kernels (README, Tests), so it is not used here.
+  // plus 1e-6). Its --uninitialized check cannot run these kernels in
+  // oclgrind 21.10 (README, Tests); the two tests below check for
+  // uninitialised data instead.
   const std::string scene = write("s.xml", kFogGlassScene);
   const std::string args = " --spp 2 --streams 200 --associated 4";
   const auto sim = run("render " + scene + " -o " + path("sim.exr") + args, "oclgrind --data-races");
@@ -111,6 +112,50 @@ TEST_F(Devices, OclgrindFindsNoDataRaceAndMatchesPocl) {
     peak = std::max(peak, double(b.rgb[i]));
   }
   EXPECT_GT(peak, 0.0);
+}
+
+TEST_F(Devices, UnwrittenDeviceMemoryIsNeverRead) {
+  // OpenCL leaves new buffers undefined. Filling every buffer with another
+  // byte first (SPM_FILL_BUFFERS) must not change a bit of the image: no
+  // kernel, and no download, reads device memory before it was written. A
+  // small memory cap adds stream batches, mid-batch flushes and gather tiles.
+  // This works on any device (SPM_TEST_DEVICE); dropping the host's reset of
+  // the stream counters makes the 0xff render fail.
+  const std::string scene = write("s.xml", kFogGlassScene);
+  const std::string args = " --spp 2 --passes 2 --streams 400 --associated 8 --res 16x12 --device-memory 150000";
+  for (const char* fill : {"0", "0xff", "0x5a"}) {
+    const auto r = run("render " + scene + " -o " + path(std::string("fill") + fill + ".exr") + args,
+                       std::string("SPM_FILL_BUFFERS=") + fill);
+    ASSERT_EQ(r.code, 0) << fill << ": " << r.err;
+  }
+  const spm::Image zero = spm::read_exr(path("fill0.exr"));
+  EXPECT_TRUE(same_pixels(zero, spm::read_exr(path("fill0xff.exr"))));
+  EXPECT_TRUE(same_pixels(zero, spm::read_exr(path("fill0x5a.exr"))));
+  EXPECT_EQ(run("render " + scene + " -o " + path("bad.exr") + args, "SPM_FILL_BUFFERS=256").code, 2);
+}
+
+TEST_F(Devices, MemcheckFindsNoUninitialisedValueInARender) {
+  // PoCL runs the kernels as native code in spm's process, and its buffers
+  // are host memory, so valgrind's memcheck follows every value through every
+  // kernel (emit to gather) and the host: a value computed from memory nobody
+  // wrote that reaches a branch, an address or the EXR is an error. This
+  // covers what oclgrind's --uninitialized would. PoCL is asked for generic
+  // x86-64 code (valgrind 3.19 cannot run AVX-512); the first render fills
+  // PoCL's kernel cache, so the one under valgrind does not compile LLVM.
+#ifdef SPM_SANITIZED
+  GTEST_SKIP() << "valgrind cannot run an AddressSanitizer build; the Release suite runs this test";
+#endif
+  const std::string scene = write("s.xml", kFogGlassScene);
+  const std::string args = " --spp 1 --passes 2 --streams 100 --associated 4 --res 12x8";
+  const std::string generic = "POCL_LLVM_CPU_NAME=x86-64 POCL_KERNELLIB_NAME=sse2";
+  ASSERT_EQ(run("render " + scene + " -o " + path("warm.exr") + args, generic).code, 0);
+  const auto r = run("render " + scene + " -o " + path("memcheck.exr") + args,
+                     generic + " valgrind --error-exitcode=99 --suppressions=" + std::string(SPM_SOURCE_DIR) +
+                         "/tools/valgrind.supp");
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("Memcheck"), std::string::npos) << "not run under valgrind: " << r.err;
+  EXPECT_NE(r.err.find("ERROR SUMMARY: 0 errors"), std::string::npos) << r.err;
+  EXPECT_TRUE(same_pixels(spm::read_exr(path("warm.exr")), spm::read_exr(path("memcheck.exr"))));
 }
 
 }  // namespace

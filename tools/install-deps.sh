@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config git
   ocl-icd-libopencl1 ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers
-  pocl-opencl-icd clinfo oclgrind
+  pocl-opencl-icd clinfo oclgrind valgrind
   libopenexr-dev libglm-dev librandom123-dev libpugixml-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -161,6 +161,18 @@ Device::Device(const DeviceInfo& info, std::string kernel_dir) : info_(info), ke
     }
     preferred_group_ = v;
   }
+  // SPM_FILL_BUFFERS fills every new buffer with one byte value before use:
+  // OpenCL leaves new buffers undefined, so no kernel may read a byte it did
+  // not write first. Renders with two fills must agree bit for bit (the
+  // tests), which catches reads of unwritten device memory on any device.
+  if (const char* env = std::getenv("SPM_FILL_BUFFERS")) {
+    char* end = nullptr;
+    const unsigned long v = std::strtoul(env, &end, 0);
+    if (*env == 0 || *end != 0 || v > 255) {
+      throw InputError("SPM_FILL_BUFFERS", std::string("expected a byte value 0-255, got '") + env + "'");
+    }
+    fill_ = static_cast<int>(v);
+  }
   context_ = cl::Context(info_.device);
   queue_ = cl::CommandQueue(context_, info_.device, CL_QUEUE_PROFILING_ENABLE);
 }
@@ -214,7 +226,9 @@ cl::Buffer Device::buffer(size_t bytes, const std::string& what, cl_mem_flags fl
     throw RuntimeError(what + " needs " + std::to_string(bytes) + " bytes, more than " + info_.name +
                        " allocates at once (CL_DEVICE_MAX_MEM_ALLOC_SIZE = " + std::to_string(info_.max_alloc) + ")");
   }
-  return cl::Buffer(context_, flags, bytes);
+  cl::Buffer b(context_, flags, bytes);
+  if (fill_ >= 0) queue_.enqueueFillBuffer(b, static_cast<cl_uchar>(fill_), 0, bytes);
+  return b;
 }
 
 size_t Device::work_group_size(const cl::Kernel& kernel) const {

@@ -119,6 +119,7 @@ class Device {
   std::vector<Launch> launches_;
   std::map<std::string, ProgramBuild> program_builds_;
   size_t preferred_group_ = 64;  // work-items per group, capped by each kernel's limit
+  int fill_ = -1;                // SPM_FILL_BUFFERS: the byte new buffers are filled with, or -1
   double build_seconds_ = 0.0;
 };
 

@@ -13,8 +13,8 @@ struct StreamState {
 #undef SPM_STREAM_BUFFER
 
   StreamState() = default;
-  StreamState(const cl::Context& context, size_t slots) {
-#define SPM_STREAM_ALLOC(type, name) name = cl::Buffer(context, CL_MEM_READ_WRITE, sizeof(cl_##type) * slots);
+  StreamState(Device& device, size_t slots) {
+#define SPM_STREAM_ALLOC(type, name) name = device.buffer(sizeof(cl_##type) * slots, "stream state " #name);
     SPM_STREAM_STATE(SPM_STREAM_ALLOC)
 #undef SPM_STREAM_ALLOC
   }

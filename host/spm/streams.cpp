@@ -54,7 +54,7 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   capacity_ = batch_size(device.info(), settings_);
   volume_capacity_ = 8 * capacity_;
   surface_capacity_ = capacity_ * settings_.associated;
-  state_ = StreamState(device.context(), capacity_);
+  state_ = StreamState(device, capacity_);
   queue_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
   queue_next_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
   counters_buffer_ = device.buffer(sizeof(cl_uint) * SPM_COUNTERS, "the stream counters");
