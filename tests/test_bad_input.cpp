@@ -4,28 +4,21 @@
 // problem, and leave no output file behind.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "cli_support.h"
+#include "test_support.h"
+
 namespace {
 
 namespace fs = std::filesystem;
-
-struct Outcome {
-  int code;
-  std::string err;
-};
-
-int count_lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
 
 // A scene that renders: a plane under a point light, 8x8 pixels. `body`
 // goes after the plane; `light` false leaves the light out.
@@ -43,46 +36,16 @@ std::string scene_text(const std::string& body, bool light = true) {
          body + "\n</scene>\n";
 }
 
-// Line (1-based) of the comment <!--here--> in `text`: where the error must be.
-int marked_line(const std::string& text) {
-  const size_t at = text.find("<!--here-->");
-  EXPECT_NE(at, std::string::npos) << "scene without <!--here-->";
-  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
-}
+using spm::test::count_lines;
+using spm::test::marked_line;
+using spm::test::Outcome;
 
-class BadInput : public ::testing::Test {
+class BadInput : public spm::test::CliTest {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("spm_bad_input_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
   void TearDown() override {
     std::error_code ec;
     fs::permissions(dir_ / "unreadable.xml", fs::perms::owner_all, ec);
-    fs::remove_all(dir_, ec);
-  }
-
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(path(name), std::ios::binary) << text;
-    return path(name);
-  }
-
-  // Runs spm with `args`, standard error captured; `prefix` goes before the
-  // binary (e.g. to run it as another user).
-  Outcome run(const std::string& args, const std::string& prefix = "") const {
-    const std::string err = path("stderr.txt");
-    const std::string cmd = prefix + std::string(SPM_BINARY) + " " + args + " >/dev/null 2>" + err + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    std::ifstream in(err);
-    std::stringstream s;
-    s << in.rdbuf();
-    fs::remove(err);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+    CliTest::TearDown();
   }
 
   // A tiny render of `scene` to out.exr; `extra` flags go last.
@@ -122,8 +85,6 @@ class BadInput : public ::testing::Test {
           << "output left after a failed run: " << name;
     }
   }
-
-  fs::path dir_;
 };
 
 TEST_F(BadInput, ControlTinySceneRenders) {

@@ -6,6 +6,7 @@
 #include <fstream>
 
 #include "cli_support.h"
+#include "test_support.h"
 #include "film/image_io.h"
 
 namespace {
@@ -26,11 +27,7 @@ const char* kTinyScene = R"(<scene version="3.0.0">
 </scene>
 )";
 
-int count_lines(const std::string& s) {
-  int n = 0;
-  for (char c : s) n += c == '\n';
-  return n;
-}
+using spm::test::count_lines;
 
 TEST_F(Cli, RendersATinySceneToCompleteFiles) {
   const std::string scene = write("tiny.xml", kTinyScene);

@@ -18,15 +18,14 @@ namespace {
 // as root too (CI), each run ended after 60 s: exit code 124 is a hang. Under
 // tools/sanitize.sh, LeakSanitizer would report what Open MPI never frees
 // (its plugins' allocations, Open MPI 4.1): those stacks, unwound in full
-// through Open MPI's libraries, are suppressed; spm's own leaks still count.
+// through Open MPI's libraries, are suppressed by tools/lsan.supp; spm's own
+// leaks still count.
 class Mpi : public spm::test::CliTest {
  protected:
   std::string mpirun(const std::string& options) const {
-    const std::string suppressions = write("lsan_openmpi.supp",
-                                           "leak:libmpi.so\nleak:libopen-pal.so\nleak:libopen-rte.so\n"
-                                           "leak:libpmix.so\nleak:libhwloc.so\nleak:libevent\nleak:mca_\n");
-    return "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 LSAN_OPTIONS=suppressions=" + suppressions +
-           ":fast_unwind_on_malloc=0 timeout -k 5 60 mpirun --oversubscribe " + options;
+    return "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 LSAN_OPTIONS=suppressions=" +
+           std::string(SPM_SOURCE_DIR) + "/tools/lsan.supp:print_suppressions=0:fast_unwind_on_malloc=0" +
+           " timeout -k 5 60 mpirun --oversubscribe " + options;
   }
 };
 

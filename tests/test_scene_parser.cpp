@@ -2,7 +2,6 @@
 // one refusal per kind of bad input, each placed at the right file:line.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <glm/glm.hpp>
@@ -10,6 +9,7 @@
 #include <string>
 
 #include "scene/loader.h"
+#include "test_support.h"
 #include "util/errors.h"
 
 namespace spm {
@@ -39,12 +39,7 @@ Scene load_in_data(const std::string& body) {
   return s;
 }
 
-// Line (1-based) of the comment <!--here--> in `text`: where the error must be.
-int marked_line(const std::string& text) {
-  size_t at = text.find("<!--here-->");
-  EXPECT_NE(at, std::string::npos) << "test body without <!--here-->";
-  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
-}
+using spm::test::marked_line;
 
 // The message of the InputError that loading `text` throws ("" if none).
 std::string error_of(const std::string& text, const std::string& name = kName, const Overrides& overrides = {}) {

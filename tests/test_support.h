@@ -1,6 +1,9 @@
 // Shared helpers of the test suite.
 #pragma once
 
+#include <gtest/gtest.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -22,6 +25,17 @@ inline std::string read_file(const std::string& path) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+// Lines of `s` (newline characters).
+inline int count_lines(const std::string& s) { return static_cast<int>(std::count(s.begin(), s.end(), '\n')); }
+
+// Line (1-based) of the comment <!--here--> in `text`: where an error must be
+// reported.
+inline int marked_line(const std::string& text) {
+  const size_t at = text.find("<!--here-->");
+  EXPECT_NE(at, std::string::npos) << "text without <!--here-->";
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
 }
 
 }  // namespace spm::test
