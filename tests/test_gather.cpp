@@ -9,7 +9,7 @@
 #include "render/render.h"
 #include "scene/loader.h"
 #include "spm/gather.h"
-#include "spm/sphere_grid.h"
+#include "spm/record_grid.h"
 #include "stats.h"
 #include "test_support.h"
 
@@ -53,13 +53,6 @@ dvec3 beam_reference(const std::vector<SpmVolumeRecord>& records, const SpmMediu
   return estimator == 1 ? sum / (kPi * r * r * (t1 - t0)) : sum;
 }
 
-template <class Record>
-spm::SphereGrid grid_of(const std::vector<Record>& records, float radius) {
-  std::vector<glm::vec3> centres;
-  for (const auto& r : records) centres.emplace_back(r.position[0], r.position[1], r.position[2]);
-  return spm::build_sphere_grid(centres, radius);
-}
-
 // The volume map as spm_gather binds it: grid info, cell starts, item
 // positions, items, records.
 struct VolumeBuffers {
@@ -67,7 +60,7 @@ struct VolumeBuffers {
 };
 
 VolumeBuffers upload(spm::Device& dev, const std::vector<SpmVolumeRecord>& records, float radius) {
-  const spm::SphereGrid grid = grid_of(records, radius);
+  const spm::RecordGrid grid = spm::volume_grid(records, radius);
   return {dev.upload(std::vector<SpmGridInfo>{grid.info}), dev.upload(grid.cell_start),
           dev.upload(spm::volume_item_positions(grid, records)), dev.upload(grid.items), dev.upload(records)};
 }
@@ -78,8 +71,7 @@ struct SurfaceBuffers {
   cl::Buffer info, start, pos, flux;
 };
 
-SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& records, float radius) {
-  const spm::SphereGrid grid = grid_of(records, radius);
+SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& records, const spm::RecordGrid& grid) {
   return {dev.upload(std::vector<SpmGridInfo>{grid.info}), dev.upload(grid.cell_start),
           dev.upload(spm::surface_item_positions(grid, records)), dev.upload(spm::surface_item_flux(grid, records))};
 }
@@ -180,26 +172,37 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
-  for (const int kernel : {0, 1}) {
-    for (const bool skip : {false, true}) {
-      // The gather's grid holds only the records it uses (used_surface_records).
-      const SurfaceBuffers up = upload(dev, spm::used_surface_records(records, skip), radius);
-      spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(kernel));
-      dev.launch("surface_test", k, n);
-      const auto got = dev.download<cl_float4>(out, n);
-      for (int i = 0; i < n; ++i) {
-        const dvec3 x(points[i].s[0], points[i].s[1], points[i].s[2]);
-        const dvec3 nq(normals[i].s[0], normals[i].s[1], normals[i].s[2]);
-        dvec3 ref(0.0);
-        for (const auto& r : records) {
-          if (skip && !(r.flags & SPM_RECORD_HAD_EVENT)) continue;
-          if (glm::dot(v3(r.normal), nq) <= 0) continue;
-          const dvec3 off = v3(r.position) - x;
-          const double h = glm::dot(off, nq), d3 = glm::dot(off, off);
-          if (d3 >= radius * radius || std::abs(h) > 0.1 * radius) continue;
-          ref += kernel_2d(kernel, d3 - h * h, radius * radius) * v3(r.flux);
+  // The gather's grid (cells of kSurfaceCell r), and point grids of cells
+  // smaller and larger than r, which the query must handle alike.
+  for (const float cell : {spm::kSurfaceCell, 0.3f, 3.0f}) {
+    for (const int kernel : {0, 1}) {
+      for (const bool skip : {false, true}) {
+        // The gather's grid holds only the records it uses (used_surface_records).
+        const auto used = spm::used_surface_records(records, skip);
+        std::vector<glm::vec3> centres;
+        for (const auto& r : used) centres.emplace_back(r.position[0], r.position[1], r.position[2]);
+        const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(used, radius)
+                                                               : spm::build_point_grid(centres, cell * radius);
+        const SurfaceBuffers up = upload(dev, used, grid);
+        spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(kernel));
+        dev.launch("surface_test", k, n);
+        const auto got = dev.download<cl_float4>(out, n);
+        for (int i = 0; i < n; ++i) {
+          const dvec3 x(points[i].s[0], points[i].s[1], points[i].s[2]);
+          const dvec3 nq(normals[i].s[0], normals[i].s[1], normals[i].s[2]);
+          dvec3 ref(0.0);
+          for (const auto& r : records) {
+            if (skip && !(r.flags & SPM_RECORD_HAD_EVENT)) continue;
+            if (glm::dot(v3(r.normal), nq) <= 0) continue;
+            const dvec3 off = v3(r.position) - x;
+            const double h = glm::dot(off, nq), d3 = glm::dot(off, off);
+            if (d3 >= radius * radius || std::abs(h) > 0.1 * radius) continue;
+            ref += kernel_2d(kernel, d3 - h * h, radius * radius) * v3(r.flux);
+          }
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_NEAR(got[i].s[c], ref[c], 1e-4 * ref[c] + 1e-9) << "query " << i << ", cell " << cell << " r";
+          }
         }
-        for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[i].s[c], ref[c], 1e-4 * ref[c] + 1e-9) << i;
       }
     }
   }
@@ -222,7 +225,7 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
     r.flags = SPM_RECORD_HAD_EVENT;
   }
   auto& dev = spm::test::device();
-  const SurfaceBuffers up = upload(dev, records, radius);
+  const SurfaceBuffers up = upload(dev, records, spm::surface_grid(records, radius));
   const int n = 200;
   std::vector<cl_float4> points(n), normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
   for (auto& p : points) p = {{radius + (side - 2 * radius) * u(rng), 0.0f, radius + (side - 2 * radius) * u(rng), 0}};

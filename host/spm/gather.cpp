@@ -29,7 +29,15 @@ float pack_normal(const float* n) {
 
 }  // namespace
 
-std::vector<cl_float4> volume_item_positions(const SphereGrid& grid, const std::vector<SpmVolumeRecord>& records) {
+RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
+  return build_sphere_grid(positions(records), radius);
+}
+
+RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius) {
+  return build_point_grid(positions(records), kSurfaceCell * radius);
+}
+
+std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
   std::vector<cl_float4> out(grid.items.size());
   for (size_t k = 0; k < out.size(); ++k) {
     const auto& r = records[grid.items[k]];
@@ -38,7 +46,7 @@ std::vector<cl_float4> volume_item_positions(const SphereGrid& grid, const std::
   return out;
 }
 
-std::vector<cl_float4> surface_item_positions(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
+std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
   std::vector<cl_float4> out(grid.items.size());
   for (size_t k = 0; k < out.size(); ++k) {
     const auto& r = records[grid.items[k]];
@@ -47,7 +55,7 @@ std::vector<cl_float4> surface_item_positions(const SphereGrid& grid, const std:
   return out;
 }
 
-std::vector<cl_float4> surface_item_flux(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
+std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
   std::vector<cl_float4> out(grid.items.size());
   for (size_t k = 0; k < out.size(); ++k) {
     const auto& r = records[grid.items[k]];
@@ -67,18 +75,18 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
 
 MapGrids::MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct) {
   const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct);
-  const SphereGrid volume_grid = build_sphere_grid(positions(maps.volume), radius);
-  const SphereGrid surface_grid = build_sphere_grid(positions(surface), radius);
-  const auto volume_pos = volume_item_positions(volume_grid, maps.volume);
-  const auto surface_pos = surface_item_positions(surface_grid, surface);
-  const auto surface_flux = surface_item_flux(surface_grid, surface);
-  volume_info_ = device.upload(std::vector<SpmGridInfo>{volume_grid.info});
-  volume_start_ = device.upload(volume_grid.cell_start);
+  const RecordGrid volume = volume_grid(maps.volume, radius);
+  const RecordGrid surface_points = surface_grid(surface, radius);
+  const auto volume_pos = volume_item_positions(volume, maps.volume);
+  const auto surface_pos = surface_item_positions(surface_points, surface);
+  const auto surface_flux = surface_item_flux(surface_points, surface);
+  volume_info_ = device.upload(std::vector<SpmGridInfo>{volume.info});
+  volume_start_ = device.upload(volume.cell_start);
   volume_pos_ = device.upload(volume_pos);
-  volume_items_ = device.upload(volume_grid.items);
+  volume_items_ = device.upload(volume.items);
   volume_ = device.upload(maps.volume);
-  surface_info_ = device.upload(std::vector<SpmGridInfo>{surface_grid.info});
-  surface_start_ = device.upload(surface_grid.cell_start);
+  surface_info_ = device.upload(std::vector<SpmGridInfo>{surface_points.info});
+  surface_start_ = device.upload(surface_points.cell_start);
   surface_pos_ = device.upload(surface_pos);
   surface_flux_ = device.upload(surface_flux);
 }

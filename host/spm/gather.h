@@ -1,24 +1,34 @@
 // The maps as the gather kernel reads them: each map with its sphere grid
-// (host/spm/sphere_grid.h) and per-item arrays in cell order, bound after the
+// (host/spm/record_grid.h) and per-item arrays in cell order, bound after the
 // gather's own arguments in the order of kernels/spm_gather.cl.
 #pragma once
 
 #include <vector>
 
 #include "device/device.h"
-#include "spm/sphere_grid.h"
+#include "spm/record_grid.h"
 #include "spm/streams.h"
 
 namespace spm {
 
+// Edge of the surface map's point grid cells, in gather radii. A query
+// examines about (2 + kSurfaceCell)^2 r^2 of surface for the pi r^2 it uses
+// and reads the bounds of up to (2 / kSurfaceCell + 1)^2 rows of cells.
+inline constexpr float kSurfaceCell = 1.0f;
+
+// The gather's grids: the volume map's sphere grid and the surface map's
+// point grid (host/spm/record_grid.h).
+RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
+RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius);
+
 // Grid items of the volume map: the listed record's position (w unused).
-std::vector<cl_float4> volume_item_positions(const SphereGrid& grid, const std::vector<SpmVolumeRecord>& records);
+std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records);
 
 // Grid items of the surface map: position with the packed normal in w
 // (kernels/lib/estimate.h, unpack_normal), and the record's flux, so that the
 // surface estimate never reads the records themselves.
-std::vector<cl_float4> surface_item_positions(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records);
-std::vector<cl_float4> surface_item_flux(const SphereGrid& grid, const std::vector<SpmSurfaceRecord>& records);
+std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
+std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
 
 // The surface records the gather uses: with next-event estimation
 // (`skip_direct`), not those of streams that had no event before (METHOD.md 5).

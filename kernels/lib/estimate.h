@@ -1,6 +1,6 @@
 /* Density estimates of the gather (METHOD.md 5): the beam radiance estimate
- * over the volumetric stream map and the surface estimate over the surface
- * photon map, both through the host-built sphere grids. */
+ * over the volumetric stream map through its host-built sphere grid, and the
+ * surface estimate over the surface photon map through its point grid. */
 #ifndef SPM_LIB_ESTIMATE_H
 #define SPM_LIB_ESTIMATE_H
 
@@ -80,23 +80,35 @@ inline float3 unpack_normal(uint bits) {
 
 /* Photon flux density at x on a surface seen from the side of `n`: sum over
  * records in the disk of radius r around x in its tangent plane, arriving on
- * the same side, of K(d) phi. The grid holds only the records to use (with
- * next-event estimation, not those of streams without an earlier event);
- * item_flux[k] is the flux of item k's record. */
+ * the same side, of K(d) phi. The grid is a point grid (each record once, in
+ * its cell) holding only the records to use (with next-event estimation, not
+ * those of streams without an earlier event); item_flux[k] is the flux of
+ * item k's record. The query visits every cell the box [x - r, x + r]
+ * touches; the cells of one row are consecutive, and so are their items. */
 inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_flux, float3 x, float3 n, float r,
                                uint kernel_type) {
   float3 sum = (float3)(0.0f);
   if (grid->info->records == 0) return sum;
   const float r2 = r * r;
-  const uint c = grid_cell_index(grid->info, grid_cell_of(grid->info, x));
-  for (uint k = grid->cell_start[c]; k < grid->cell_start[c + 1]; ++k) {
-    const float4 p = grid->item_pos[k];
-    const float3 off = p.xyz - x;
-    const float h = dot(off, n);
-    const float d3 = dot(off, off);
-    if (d3 >= r2 || fabs(h) > SPM_DISK_THICKNESS * r) continue;
-    if (dot(unpack_normal(as_uint(p.w)), n) <= 0.0f) continue;
-    sum += kernel_2d(kernel_type, d3 - h * h, r2) * item_flux[k].xyz;
+  /* Grown by a relative 1e-5: float rounding of x +- r must not drop the
+   * cell of a record just inside the disk. */
+  const float reach = r * 1.00001f;
+  const int3 c0 = grid_cell_of(grid->info, x - reach);
+  const int3 c1 = grid_cell_of(grid->info, x + reach);
+  for (int z = c0.z; z <= c1.z; ++z) {
+    for (int y = c0.y; y <= c1.y; ++y) {
+      const uint row = grid_cell_index(grid->info, (int3)(c0.x, y, z));
+      const uint end = grid->cell_start[row + (uint)(c1.x - c0.x) + 1u];
+      for (uint k = grid->cell_start[row]; k < end; ++k) {
+        const float4 p = grid->item_pos[k];
+        const float3 off = p.xyz - x;
+        const float h = dot(off, n);
+        const float d3 = dot(off, off);
+        if (d3 >= r2 || fabs(h) > SPM_DISK_THICKNESS * r) continue;
+        if (dot(unpack_normal(as_uint(p.w)), n) <= 0.0f) continue;
+        sum += kernel_2d(kernel_type, d3 - h * h, r2) * item_flux[k].xyz;
+      }
+    }
   }
   return sum;
 }

@@ -1,4 +1,4 @@
-/* The uniform sphere grids built on the host (host/spm/sphere_grid.h): cell
+/* The uniform record grids built on the host (host/spm/record_grid.h): cell
  * lookup and the 3D-DDA walk of a ray segment (Amanatides & Woo 1987). */
 #ifndef SPM_LIB_GRID_H
 #define SPM_LIB_GRID_H

@@ -1,8 +1,15 @@
-// Uniform grid over the spheres of radius r around map records (METHOD.md 5),
-// built on the host as a counting sort into two flat arrays that upload as they
-// are (after SmallVCM's hashgrid). A gather ray walks the cells it crosses and
-// counts each record in the one cell that holds the record's closest point on
-// the ray, so every record within r of the ray is found exactly once.
+// Uniform grids over map records, built on the host as a counting sort into
+// two flat arrays that upload as they are (after SmallVCM's hashgrid).
+// - Sphere grid, for the volume map (METHOD.md 5): each record is listed in
+//   every cell its ball of radius r overlaps. A gather ray walks the cells it
+//   crosses and counts each record in the one cell that holds the record's
+//   closest point on the ray, so every record within r of the ray is found
+//   exactly once.
+// - Point grid, for the surface map: each record is listed once, in the cell
+//   holding it. A surface query visits the cells its ball touches; on a
+//   surface that examines about (2r + cell)^2 of area per query instead of
+//   the sphere grid's (2r + 2r)^2, and lists a record once instead of up to
+//   8 times.
 #pragma once
 
 #include <algorithm>
@@ -17,7 +24,7 @@
 
 namespace spm {
 
-struct SphereGrid {
+struct RecordGrid {
   SpmGridInfo info{};                // info.records = number of centres
   std::vector<uint32_t> cell_start;  // size = cells + 1
   std::vector<uint32_t> items;       // record indices, each cell's list in increasing record index
@@ -33,8 +40,14 @@ struct SphereGrid {
 // Throws InputError for a radius that is not positive and finite or a zero
 // max_cells, RuntimeError for a non-finite centre or more items than 32-bit
 // indices hold.
-SphereGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius,
+RecordGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius,
                              size_t max_cells = size_t(1) << 22);
+
+// Every centre is listed in exactly the cell grid_cell_of gives for it. Cells
+// are cubes of edge max(cell, extent / floor(cbrt(max_cells))) covering the
+// bounding box of the centres. Throws as build_sphere_grid does (InputError
+// for a cell edge that is not positive and finite).
+RecordGrid build_point_grid(const std::vector<glm::vec3>& centres, float cell, size_t max_cells = size_t(1) << 22);
 
 // Cell coordinates of point p, clamped to the grid; p must be finite. Float
 // arithmetic, as in the kernels, so host and device agree on a point's cell.

@@ -1,4 +1,4 @@
-#include "spm/sphere_grid.h"
+#include "spm/record_grid.h"
 
 #include <chrono>
 #include <limits>
@@ -67,53 +67,49 @@ void for_each_overlapped_cell(const SpmGridInfo& g, const glm::vec3& p, double r
   }
 }
 
-}  // namespace
-
-SphereGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius, size_t max_cells) {
-  const auto start = std::chrono::steady_clock::now();
-  if (!(radius > 0.0f) || !std::isfinite(radius)) {
-    throw InputError("", "the gather radius must be positive and finite, got " + std::to_string(radius));
-  }
-  if (max_cells == 0) throw InputError("", "the sphere grid needs max_cells >= 1");
+// Throws for the bad inputs both grids share.
+void check_centres(const std::vector<glm::vec3>& centres, size_t max_cells) {
+  if (max_cells == 0) throw InputError("", "a record grid needs max_cells >= 1");
   if (centres.size() > std::numeric_limits<uint32_t>::max()) {
-    throw RuntimeError("sphere grid: " + std::to_string(centres.size()) + " records exceed 32-bit record indices");
+    throw RuntimeError("record grid: " + std::to_string(centres.size()) + " records exceed 32-bit record indices");
   }
+  for (size_t i = 0; i < centres.size(); ++i) {
+    const glm::vec3& c = centres[i];
+    if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z)) {
+      throw RuntimeError("record grid: non-finite record position (" + std::to_string(c.x) + ", " +
+                         std::to_string(c.y) + ", " + std::to_string(c.z) + ") at record " + std::to_string(i));
+    }
+  }
+}
 
-  // Bounding box of all balls; an empty map gets one cell of edge 2r at the origin.
-  const double r = radius;
-  glm::dvec3 lo(0.0), hi(2.0 * r);
+// The grid's corner, cubic cells of edge >= min_cell and dims: it covers the
+// bounding box of the centres grown by `margin` (an empty map: one cell at the
+// origin), with at most max_cells cells.
+SpmGridInfo layout(const std::vector<glm::vec3>& centres, double margin, double min_cell, size_t max_cells) {
+  glm::dvec3 lo(0.0), hi(std::max(min_cell, 2.0 * margin));
   if (!centres.empty()) {
     lo = glm::dvec3(std::numeric_limits<double>::max());
     hi = -lo;
-    for (size_t i = 0; i < centres.size(); ++i) {
-      const glm::vec3& c = centres[i];
-      if (!std::isfinite(c.x) || !std::isfinite(c.y) || !std::isfinite(c.z)) {
-        throw RuntimeError("sphere grid: non-finite record position (" + std::to_string(c.x) + ", " +
-                           std::to_string(c.y) + ", " + std::to_string(c.z) + ") at record " + std::to_string(i));
-      }
+    for (const glm::vec3& c : centres) {
       lo = glm::min(lo, glm::dvec3(c));
       hi = glm::max(hi, glm::dvec3(c));
     }
-    lo -= r;
-    hi += r;
+    lo -= margin;
+    hi += margin;
   }
-
-  SphereGrid grid;
-  SpmGridInfo& g = grid.info;
+  SpmGridInfo g{};
   g.records = static_cast<uint32_t>(centres.size());
   double extent = 0.0;
   for (int k = 0; k < 3; ++k) {
     g.lo[k] = float_down(lo[k]);
     extent = std::max(extent, hi[k] - g.lo[k]);
   }
-  // Edge >= 2r keeps a record in at most 8 cells (barring exact tangency).
-  float cell = float_up(std::max(2.0 * r, extent / double(cube_root_floor(max_cells))));
-  uint64_t cells;
+  float cell = float_up(std::max(min_cell, extent / double(cube_root_floor(max_cells))));
   for (;;) {
     if (!std::isfinite(cell)) {
-      throw RuntimeError("sphere grid: cell edge overflows float (extent " + std::to_string(extent) + ")");
+      throw RuntimeError("record grid: cell edge overflows float (extent " + std::to_string(extent) + ")");
     }
-    cells = 1;
+    uint64_t cells = 1;
     for (int k = 0; k < 3; ++k) {
       g.dims[k] = static_cast<uint32_t>(std::max(1.0, std::ceil((hi[k] - g.lo[k]) / cell)));
       cells *= g.dims[k];
@@ -123,28 +119,61 @@ SphereGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius
     cell = std::nextafter(cell, std::numeric_limits<float>::infinity());
   }
   g.cell = cell;
+  return g;
+}
 
-  // Counting sort: count each cell's records into cell_start[c + 1], prefix-sum,
-  // then fill in record order so each cell's list is increasing.
+// Counting sort: count each cell's records into cell_start[c + 1], prefix-sum,
+// then fill in record order so each cell's list is increasing.
+// for_each_cell(centre, f) calls f(cell index) for each cell listing it.
+template <typename ForEachCell>
+void fill(RecordGrid& grid, const std::vector<glm::vec3>& centres, ForEachCell&& for_each_cell) {
+  const size_t cells = size_t(grid.info.dims[0]) * grid.info.dims[1] * grid.info.dims[2];
   grid.cell_start.assign(cells + 1, 0);
   for (const glm::vec3& c : centres) {
-    for_each_overlapped_cell(g, c, r, [&](size_t cell_index) { ++grid.cell_start[cell_index + 1]; });
+    for_each_cell(c, [&](size_t cell_index) { ++grid.cell_start[cell_index + 1]; });
   }
   uint64_t total = 0;
   for (size_t c = 1; c <= cells; ++c) {
     total += grid.cell_start[c];
     if (total > std::numeric_limits<uint32_t>::max()) {
-      throw RuntimeError("sphere grid: more than 2^32 (record, cell) pairs; use a smaller radius or fewer records");
+      throw RuntimeError("record grid: more than 2^32 (record, cell) pairs; use a smaller radius or fewer records");
     }
     grid.cell_start[c] = static_cast<uint32_t>(total);
   }
   grid.items.resize(total);
   std::vector<uint32_t> next(grid.cell_start.begin(), grid.cell_start.end() - 1);
   for (size_t i = 0; i < centres.size(); ++i) {
-    for_each_overlapped_cell(g, centres[i], r,
-                             [&](size_t cell_index) { grid.items[next[cell_index]++] = static_cast<uint32_t>(i); });
+    for_each_cell(centres[i], [&](size_t cell_index) { grid.items[next[cell_index]++] = static_cast<uint32_t>(i); });
   }
+}
 
+}  // namespace
+
+RecordGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius, size_t max_cells) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(radius > 0.0f) || !std::isfinite(radius)) {
+    throw InputError("", "the gather radius must be positive and finite, got " + std::to_string(radius));
+  }
+  check_centres(centres, max_cells);
+  const double r = radius;
+  RecordGrid grid;
+  // Edge >= 2r keeps a record in at most 8 cells (barring exact tangency); the
+  // margin r keeps every ball inside the grid.
+  grid.info = layout(centres, r, 2.0 * r, max_cells);
+  fill(grid, centres, [&](const glm::vec3& c, auto&& f) { for_each_overlapped_cell(grid.info, c, r, f); });
+  grid.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return grid;
+}
+
+RecordGrid build_point_grid(const std::vector<glm::vec3>& centres, float cell, size_t max_cells) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(cell > 0.0f) || !std::isfinite(cell)) {
+    throw InputError("", "the point grid's cell edge must be positive and finite, got " + std::to_string(cell));
+  }
+  check_centres(centres, max_cells);
+  RecordGrid grid;
+  grid.info = layout(centres, 0.0, cell, max_cells);
+  fill(grid, centres, [&](const glm::vec3& c, auto&& f) { f(grid_cell_index(grid.info, grid_cell_of(grid.info, c))); });
   grid.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return grid;
 }
