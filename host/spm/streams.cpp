@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "util/errors.h"
+#include "util/radix_sort.h"
 
 namespace spm {
 
@@ -31,18 +32,6 @@ uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
                        " bytes");
   }
   return static_cast<uint32_t>(n);
-}
-
-// Sorts records by a unique 64-bit key: sorting (key, index) pairs and then
-// moving each record once is several times faster than sorting the records.
-template <class Record, class Key>
-void sort_by_key(std::vector<Record>& records, Key key) {
-  std::vector<std::pair<uint64_t, uint32_t>> order(records.size());
-  for (size_t i = 0; i < records.size(); ++i) order[i] = {key(records[i]), static_cast<uint32_t>(i)};
-  std::sort(order.begin(), order.end());
-  std::vector<Record> sorted(records.size());
-  for (size_t i = 0; i < order.size(); ++i) sorted[i] = records[order[i].second];
-  records = std::move(sorted);
 }
 
 }  // namespace
