@@ -347,20 +347,18 @@ TEST(RecordGrid, RefusesBadInput) {
     EXPECT_THROW(spm::build_point_grid(centres, cell), spm::InputError) << "cell " << cell;
   }
   EXPECT_THROW(spm::build_point_grid(centres, 1.0f, 0), spm::InputError);
-  for (const vec3& bad : {vec3(std::nanf(""), 0, 0), vec3(0, inf, 0), vec3(0, 0, -inf)}) {
-    try {
-      spm::build_sphere_grid({vec3(1.0f), bad}, 1.0f);
-      ADD_FAILURE() << "a non-finite centre was accepted";
-    } catch (const spm::RuntimeError& e) {
-      EXPECT_NE(std::string(e.what()).find("non-finite record position"), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("record 1"), std::string::npos) << e.what();
-    }
-    try {
-      spm::build_point_grid({vec3(1.0f), bad}, 1.0f);
-      ADD_FAILURE() << "a non-finite centre was accepted by the point grid";
-    } catch (const spm::RuntimeError& e) {
-      EXPECT_NE(std::string(e.what()).find("non-finite record position"), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("record 1"), std::string::npos) << e.what();
+  using Build = RecordGrid (*)(const std::vector<vec3>&);
+  const Build builds[] = {[](const std::vector<vec3>& c) { return spm::build_sphere_grid(c, 1.0f); },
+                          [](const std::vector<vec3>& c) { return spm::build_point_grid(c, 1.0f); }};
+  for (const Build build : builds) {
+    for (const vec3& bad : {vec3(std::nanf(""), 0, 0), vec3(0, inf, 0), vec3(0, 0, -inf)}) {
+      try {
+        build({vec3(1.0f), bad});
+        ADD_FAILURE() << "a non-finite centre was accepted";
+      } catch (const spm::RuntimeError& e) {
+        EXPECT_NE(std::string(e.what()).find("non-finite record position"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("record 1"), std::string::npos) << e.what();
+      }
     }
   }
 }
