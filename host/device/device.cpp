@@ -211,7 +211,15 @@ cl::Kernel Device::kernel(const std::string& program, const std::string& name) {
         }
         throw RuntimeError("building " + program + ".cl on " + info_.name + ": " + describe(e) + "\n" + log);
       }
-      if (cached.binary.empty()) cached.binary = prog.getInfo<CL_PROGRAM_BINARIES>().front();
+      if (cached.binary.empty()) {
+        // A driver without program binaries only costs the next device of
+        // its model a compile of its own.
+        try {
+          auto binaries = prog.getInfo<CL_PROGRAM_BINARIES>();
+          if (!binaries.empty()) cached.binary = std::move(binaries.front());
+        } catch (const cl::Error&) {
+        }
+      }
     }
     build.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     build_seconds_ += build.seconds;
