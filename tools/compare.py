@@ -114,8 +114,7 @@ def error_png(a, b, path, eps=EPSILON, titles=("image", "reference"), signed=Fal
 
 
 def main() -> int:
-    if "-h" not in sys.argv and "--help" not in sys.argv:
-        reference.reexec_in_venv(reference.pre_parse_build_dir(sys.argv[1:]), os.path.abspath(__file__))
+    reference.reexec_in_venv(os.path.abspath(__file__))
     p = argparse.ArgumentParser(description="Errors of an EXR image against a reference EXR: RMSE, relMSE "
                                 "(eps 1e-2), per-channel means, and a false-colour error PNG.",
                                 epilog="Examples:" + __doc__.split("Examples:")[1],

@@ -111,8 +111,7 @@ def plot_equal_time(rows, path, title):
 
 
 def main() -> int:
-    if "-h" not in sys.argv and "--help" not in sys.argv:
-        reference.reexec_in_venv(reference.pre_parse_build_dir(sys.argv[1:]), os.path.abspath(__file__))
+    reference.reexec_in_venv(os.path.abspath(__file__))
     p = argparse.ArgumentParser(description="relMSE of spm against a Mitsuba reference for increasing pass "
                                 "counts (both estimators), and spm vs Mitsuba volpath at equal time.",
                                 epilog="Example:" + __doc__.split("Example:")[1],

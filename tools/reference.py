@@ -83,8 +83,12 @@ def ensure_venv(build_dir: Path, requirements=VENV_REQUIREMENTS, quiet=False) ->
     return python
 
 
-def reexec_in_venv(build_dir: Path, script: str) -> None:
-    """Runs `script` again with the venv's python unless this is it."""
+def reexec_in_venv(script: str) -> None:
+    """Runs `script` again with the venv's python (under --build-dir) unless
+    this is it or only help was asked for, which needs no venv."""
+    if "-h" in sys.argv or "--help" in sys.argv:
+        return
+    build_dir = pre_parse_build_dir(sys.argv[1:])
     venv = venv_dir(build_dir)
     if in_venv(venv):
         return
@@ -297,8 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main() -> int:
-    if "-h" not in sys.argv and "--help" not in sys.argv:
-        reexec_in_venv(pre_parse_build_dir(sys.argv[1:]), os.path.abspath(__file__))
+    reexec_in_venv(os.path.abspath(__file__))
     args = build_parser().parse_args()
     log = (lambda *a: None) if args.quiet else (lambda *a: print("reference:", *a, file=sys.stderr, flush=True))
 
