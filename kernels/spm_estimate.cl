@@ -12,10 +12,7 @@ __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uin
                             uint count, int medium, float radius, uint kernel_type, uint estimator) {
   const uint i = get_global_id(0);
   if (i >= count) return;
-  SpmGrid grid;
-  grid.info = info;
-  grid.cell_start = cell_start;
-  grid.item_pos = item_pos;
+  const SpmGrid grid = make_grid(info, cell_start, item_pos);
   uint tests = 0;
   const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
                                  origins[i].w, directions[i].w, radius, kernel_type, estimator, &tests);
@@ -28,9 +25,6 @@ __kernel void spm_surface_test(const __global SpmGridInfo* info, const __global 
                                uint count, float radius, uint kernel_type) {
   const uint i = get_global_id(0);
   if (i >= count) return;
-  SpmGrid grid;
-  grid.info = info;
-  grid.cell_start = cell_start;
-  grid.item_pos = item_pos;
+  const SpmGrid grid = make_grid(info, cell_start, item_pos);
   out[i] = (float4)(surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, kernel_type), 0.0f);
 }

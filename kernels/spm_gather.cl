@@ -144,14 +144,10 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
   const uint pixel = first_pixel + item;
   const SpmScene s = SPM_SCENE;
   SpmMaps maps;
-  maps.volume_grid.info = volume_info;
-  maps.volume_grid.cell_start = volume_start;
-  maps.volume_grid.item_pos = volume_pos;
+  maps.volume_grid = make_grid(volume_info, volume_start, volume_pos);
   maps.volume_items = volume_items;
   maps.volume = volume;
-  maps.surface_grid.info = surface_info;
-  maps.surface_grid.cell_start = surface_start;
-  maps.surface_grid.item_pos = surface_pos;
+  maps.surface_grid = make_grid(surface_info, surface_start, surface_pos);
   maps.surface_flux = surface_flux;
   maps.radius = radius;
   maps.kernel_type = kernel_type;
