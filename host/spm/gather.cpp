@@ -27,6 +27,14 @@ float pack_normal(const float* n) {
   return f;
 }
 
+// value(record) for the record each grid item lists, in item order.
+template <class Record, class Value>
+std::vector<cl_float4> per_item(const RecordGrid& grid, const std::vector<Record>& records, Value value) {
+  std::vector<cl_float4> out(grid.items.size());
+  for (size_t k = 0; k < out.size(); ++k) out[k] = value(records[grid.items[k]]);
+  return out;
+}
+
 }  // namespace
 
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
@@ -38,30 +46,20 @@ RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radi
 }
 
 std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
-  std::vector<cl_float4> out(grid.items.size());
-  for (size_t k = 0; k < out.size(); ++k) {
-    const auto& r = records[grid.items[k]];
-    out[k] = {{r.position[0], r.position[1], r.position[2], 0.0f}};
-  }
-  return out;
+  return per_item(grid, records, [](const SpmVolumeRecord& r) {
+    return cl_float4{{r.position[0], r.position[1], r.position[2], 0.0f}};
+  });
 }
 
 std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
-  std::vector<cl_float4> out(grid.items.size());
-  for (size_t k = 0; k < out.size(); ++k) {
-    const auto& r = records[grid.items[k]];
-    out[k] = {{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
-  }
-  return out;
+  return per_item(grid, records, [](const SpmSurfaceRecord& r) {
+    return cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
+  });
 }
 
 std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
-  std::vector<cl_float4> out(grid.items.size());
-  for (size_t k = 0; k < out.size(); ++k) {
-    const auto& r = records[grid.items[k]];
-    out[k] = {{r.flux[0], r.flux[1], r.flux[2], 0.0f}};
-  }
-  return out;
+  return per_item(grid, records,
+                  [](const SpmSurfaceRecord& r) { return cl_float4{{r.flux[0], r.flux[1], r.flux[2], 0.0f}}; });
 }
 
 std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct) {
