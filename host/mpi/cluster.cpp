@@ -56,6 +56,12 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
 
 #else  // SPM_HAVE_MPI
 
+// A rank's stats as rank 0 receives them (kTagDone), field by field.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(DeviceStats, name, passes, busy_seconds)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RenderStats, passes, interrupted, seconds, bvh_seconds, build_seconds,
+                                   propagate_seconds, grid_seconds, gather_seconds, camera_samples, sphere_tests,
+                                   devices)
+
 namespace {
 
 using nlohmann::json;
@@ -87,43 +93,6 @@ void wait_gently(MPI_Request& request) {
     std::this_thread::sleep_for(pause);
     pause = std::min<std::chrono::microseconds>(pause * 2, std::chrono::milliseconds(10));
   }
-}
-
-json stats_json(const RenderStats& s) {
-  json devices = json::array();
-  for (const auto& d : s.devices) {
-    devices.push_back({{"name", d.name}, {"passes", d.passes}, {"busy_seconds", d.busy_seconds}});
-  }
-  return {{"passes", s.passes},
-          {"interrupted", s.interrupted},
-          {"seconds", s.seconds},
-          {"bvh_seconds", s.bvh_seconds},
-          {"build_seconds", s.build_seconds},
-          {"propagate_seconds", s.propagate_seconds},
-          {"grid_seconds", s.grid_seconds},
-          {"gather_seconds", s.gather_seconds},
-          {"camera_samples", s.camera_samples},
-          {"sphere_tests", s.sphere_tests},
-          {"devices", devices}};
-}
-
-RenderStats stats_from_json(const json& j) {
-  RenderStats s;
-  s.passes = j.at("passes");
-  s.interrupted = j.at("interrupted");
-  s.seconds = j.at("seconds");
-  s.bvh_seconds = j.at("bvh_seconds");
-  s.build_seconds = j.at("build_seconds");
-  s.propagate_seconds = j.at("propagate_seconds");
-  s.grid_seconds = j.at("grid_seconds");
-  s.gather_seconds = j.at("gather_seconds");
-  s.camera_samples = j.at("camera_samples");
-  s.sphere_tests = j.at("sphere_tests");
-  for (const auto& d : j.at("devices")) {
-    s.devices.push_back(
-        {d.at("name").get<std::string>(), d.at("passes").get<int>(), d.at("busy_seconds").get<double>()});
-  }
-  return s;
 }
 
 // What every rank must agree on for its passes to belong to one image.
@@ -306,7 +275,7 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
     }
     RenderStats st = local.join();
     const std::string done = json{{"settings", settings_json(s)},
-                                  {"stats", stats_json(st)},
+                                  {"stats", st},
                                   {"profile", rank_profile(c, scene, s, st, devices, profiler)}}
                                  .dump();
     MPI_Send(done.data(), int(done.size()), MPI_CHAR, 0, kTagDone, MPI_COMM_WORLD);
@@ -362,7 +331,7 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
                            "renders with other settings than rank 0: " + done.at("settings").dump() + " instead of " +
                                settings_json(s).dump() + " (every rank needs the same scene and options)");
         }
-        remote[size_t(from)] = stats_from_json(done.at("stats"));
+        remote[size_t(from)] = done.at("stats").get<RenderStats>();
         profiles[size_t(from)] = done.at("profile");
         ++remote_done;
       } else {

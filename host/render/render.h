@@ -44,7 +44,7 @@ struct RenderStats {
   double build_seconds = 0.0;   // kernel program builds, all devices
   // Summed over passes (and devices: with several, more than `seconds`).
   double propagate_seconds = 0.0;  // stream propagation incl. map downloads and sorting
-  double grid_seconds = 0.0;       // sphere grid builds and uploads
+  double grid_seconds = 0.0;       // record grid builds and uploads
   double gather_seconds = 0.0;     // gather kernel and film download
   uint64_t camera_samples = 0;
   uint64_t sphere_tests = 0;       // volume records examined by the beam estimates
