@@ -32,6 +32,23 @@ inline const char* kFogGlassScene = R"(<scene version="3.0.0">
 </scene>
 )";
 
+// A plane under a point light, width x height pixels: the smallest scene that
+// renders. `body` goes after the plane; `light` false leaves the light out.
+inline std::string plane_scene(const std::string& body = "", bool light = true, int width = 8, int height = 8) {
+  return std::string(R"(<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="45"/>
+    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value=")") +
+         std::to_string(width) + R"("/><integer name="height" value=")" + std::to_string(height) + R"("/></film>
+  </sensor>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>
+)" + (light ? "  <emitter type=\"point\"><point name=\"position\" x=\"0\" y=\"2\" z=\"0\"/>"
+                "<rgb name=\"intensity\" value=\"5\"/></emitter>\n"
+              : "") +
+         body + "\n</scene>\n";
+}
+
 struct Outcome {
   int code;
   std::string err;

@@ -20,23 +20,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A scene that renders: a plane under a point light, 8x8 pixels. `body`
-// goes after the plane; `light` false leaves the light out.
-std::string scene_text(const std::string& body, bool light = true) {
-  return std::string(R"(<scene version="3.0.0">
-  <sensor type="perspective">
-    <float name="fov" value="45"/>
-    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
-  </sensor>
-  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>
-)") + (light ? "  <emitter type=\"point\"><point name=\"position\" x=\"0\" y=\"2\" z=\"0\"/>"
-                 "<rgb name=\"intensity\" value=\"5\"/></emitter>\n"
-               : "") +
-         body + "\n</scene>\n";
-}
-
 using spm::test::count_lines;
+using spm::test::plane_scene;
 using spm::test::marked_line;
 using spm::test::Outcome;
 
@@ -88,7 +73,7 @@ class BadInput : public spm::test::CliTest {
 };
 
 TEST_F(BadInput, ControlTinySceneRenders) {
-  const Outcome r = render(write("ok.xml", scene_text("")));
+  const Outcome r = render(write("ok.xml", plane_scene("")));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_TRUE(fs::exists(path("out.exr")));
   EXPECT_TRUE(fs::exists(path("out.png")));
@@ -102,13 +87,13 @@ TEST_F(BadInput, DeviceInsteadOfFile) {
   // Reading /dev/zero would never end.
   expect_refused(render("/dev/zero"), "/dev/zero", "is a device, not a file");
   const std::string text =
-      scene_text("<shape type=\"obj\"> <!--here-->\n  <string name=\"filename\" value=\"/dev/zero\"/>\n</shape>");
+      plane_scene("<shape type=\"obj\"> <!--here-->\n  <string name=\"filename\" value=\"/dev/zero\"/>\n</shape>");
   const std::string file = write("bad.xml", text);
   expect_refused(render(file), file + ":" + std::to_string(marked_line(text)) + ":", "OBJ file '/dev/zero' is a device");
 }
 
 TEST_F(BadInput, UnreadableSceneFile) {
-  const std::string file = write("unreadable.xml", scene_text(""));
+  const std::string file = write("unreadable.xml", plane_scene(""));
   fs::permissions(file, fs::perms::none);
   std::string prefix;
   if (::access(file.c_str(), R_OK) == 0) {
@@ -128,7 +113,7 @@ TEST_F(BadInput, UnreadableSceneFile) {
 
 TEST_F(BadInput, MalformedXml) {
   // An element left open: pugixml reports it where the closing tag is wrong.
-  expect_scene_refused(scene_text("  <shape type=\"cube\">\n<!--here--></scene>"), "malformed XML");
+  expect_scene_refused(plane_scene("  <shape type=\"cube\">\n<!--here--></scene>"), "malformed XML");
   // Not XML at all.
   const std::string file = write("binary.xml", std::string("\x7f" "ELF\x02\x01\x01\0\0\0", 10));
   expect_refused(render(file), file + ":1:", "malformed XML");
@@ -144,31 +129,31 @@ TEST_F(BadInput, UnknownPlugin) {
   };
   for (const auto& [element, keyword] : cases) {
     SCOPED_TRACE(element);
-    expect_scene_refused(scene_text(std::string(element) + " <!--here-->"), keyword);
+    expect_scene_refused(plane_scene(std::string(element) + " <!--here-->"), keyword);
   }
 }
 
 TEST_F(BadInput, UnknownProperty) {
   // The README's example, word for word.
-  expect_scene_refused(scene_text("<bsdf type=\"diffuse\">\n<float name=\"radius\" value=\"1\"/> <!--here-->\n</bsdf>"),
+  expect_scene_refused(plane_scene("<bsdf type=\"diffuse\">\n<float name=\"radius\" value=\"1\"/> <!--here-->\n</bsdf>"),
                        "unknown property 'radius' of bsdf 'diffuse'");
   // A property Mitsuba's medium has but the subset does not read.
   expect_scene_refused(
-      scene_text("<medium type=\"homogeneous\">\n<float name=\"sample_emitters\" value=\"1\"/> <!--here-->\n</medium>"),
+      plane_scene("<medium type=\"homogeneous\">\n<float name=\"sample_emitters\" value=\"1\"/> <!--here-->\n</medium>"),
       "unknown property 'sample_emitters'");
 }
 
 TEST_F(BadInput, WrongPropertyType) {
-  expect_scene_refused(scene_text("<bsdf type=\"diffuse\">\n<string name=\"reflectance\" value=\"red\"/> <!--here-->\n</bsdf>"),
+  expect_scene_refused(plane_scene("<bsdf type=\"diffuse\">\n<string name=\"reflectance\" value=\"red\"/> <!--here-->\n</bsdf>"),
                        "property 'reflectance' of bsdf 'diffuse' must be an <rgb>");
   expect_scene_refused(
-      scene_text("<shape type=\"sphere\">\n<integer name=\"center\" value=\"1\"/> <!--here-->\n</shape>"),
+      plane_scene("<shape type=\"sphere\">\n<integer name=\"center\" value=\"1\"/> <!--here-->\n</shape>"),
       "must be a <point>");
   // The right tag with a value of the wrong type.
-  expect_scene_refused(scene_text("<shape type=\"sphere\">\n<float name=\"radius\" value=\"big\"/> <!--here-->\n</shape>"),
+  expect_scene_refused(plane_scene("<shape type=\"sphere\">\n<float name=\"radius\" value=\"big\"/> <!--here-->\n</shape>"),
                        "malformed number 'big'");
   expect_scene_refused(
-      scene_text("<shape type=\"cube\">\n<boolean name=\"flip_normals\" value=\"yes\"/> <!--here-->\n</shape>"),
+      plane_scene("<shape type=\"cube\">\n<boolean name=\"flip_normals\" value=\"yes\"/> <!--here-->\n</shape>"),
       "malformed boolean 'yes'");
 }
 
@@ -195,9 +180,9 @@ TEST_F(BadInput, NegativeOrNanCoefficients) {
       std::string element = c.element;
       element.replace(element.find("%s"), 2, value);
       if (std::string(value).find('-') != std::string::npos) {
-        expect_scene_refused(scene_text(element + " <!--here-->"), std::string(c.property) + " " + c.negative_keyword);
+        expect_scene_refused(plane_scene(element + " <!--here-->"), std::string(c.property) + " " + c.negative_keyword);
       } else {
-        expect_scene_refused(scene_text(element + " <!--here-->"),
+        expect_scene_refused(plane_scene(element + " <!--here-->"),
                              "non-finite number", "in property '" + std::string(c.property) + "'");
       }
     }
@@ -207,19 +192,19 @@ TEST_F(BadInput, NegativeOrNanCoefficients) {
 TEST_F(BadInput, HgAsymmetryOutsideOpenInterval) {
   for (const char* g : {"1", "-1", "1.5", "-7"}) {
     SCOPED_TRACE(g);
-    expect_scene_refused(scene_text(std::string("<medium type=\"homogeneous\"><phase type=\"hg\">\n"
+    expect_scene_refused(plane_scene(std::string("<medium type=\"homogeneous\"><phase type=\"hg\">\n"
                                                 "<float name=\"g\" value=\"") +
                                     g + "\"/> <!--here-->\n</phase></medium>"),
                          "g of the hg phase function must be in (-1, 1)");
   }
-  expect_scene_refused(scene_text("<medium type=\"homogeneous\"><phase type=\"hg\">\n"
+  expect_scene_refused(plane_scene("<medium type=\"homogeneous\"><phase type=\"hg\">\n"
                                   "<float name=\"g\" value=\"nan\"/> <!--here-->\n</phase></medium>"),
                        "non-finite number 'nan' in property 'g'");
 }
 
 TEST_F(BadInput, ZeroAreaLight) {
   // A rectangle scaled to zero in one axis, with an area emitter.
-  expect_scene_refused(scene_text(R"(<shape type="rectangle">
+  expect_scene_refused(plane_scene(R"(<shape type="rectangle">
   <transform name="to_world"> <!--here-->
     <scale x="0"/>
   </transform>
@@ -227,13 +212,13 @@ TEST_F(BadInput, ZeroAreaLight) {
 </shape>)"),
                        "zero area");
   // Scaled to 1e-20: every triangle is zero-area in float and dropped.
-  expect_scene_refused(scene_text(R"(<shape type="rectangle"> <!--here-->
+  expect_scene_refused(plane_scene(R"(<shape type="rectangle"> <!--here-->
   <transform name="to_world"><scale y="1e-20"/></transform>
   <emitter type="area"><rgb name="radiance" value="1"/></emitter>
 </shape>)"),
                        "no triangles of non-zero area");
   // A sphere of radius 0.
-  expect_scene_refused(scene_text(R"(<shape type="sphere">
+  expect_scene_refused(plane_scene(R"(<shape type="sphere">
   <float name="radius" value="0"/> <!--here-->
   <emitter type="area"><rgb name="radiance" value="1"/></emitter>
 </shape>)"),
@@ -241,18 +226,18 @@ TEST_F(BadInput, ZeroAreaLight) {
 }
 
 TEST_F(BadInput, ZeroPowerLight) {
-  expect_scene_refused(scene_text(R"(<shape type="rectangle">
+  expect_scene_refused(plane_scene(R"(<shape type="rectangle">
   <emitter type="area"> <!--here-->
     <rgb name="radiance" value="0"/>
   </emitter>
 </shape>)"),
                        "light emits no power: its radiance is zero");
-  expect_scene_refused(scene_text(R"(<emitter type="spot"> <!--here-->
+  expect_scene_refused(plane_scene(R"(<emitter type="spot"> <!--here-->
   <rgb name="intensity" value="0, 0, 0"/>
 </emitter>)"),
                        "light emits no power: its intensity is zero");
   // Non-zero radiance, but an area too small for the power to be a float.
-  expect_scene_refused(scene_text(R"(<shape type="sphere">
+  expect_scene_refused(plane_scene(R"(<shape type="sphere">
   <float name="radius" value="1e-30"/>
   <emitter type="area"> <!--here-->
     <rgb name="radiance" value="1"/>
@@ -260,7 +245,7 @@ TEST_F(BadInput, ZeroPowerLight) {
 </shape>)"),
                        "light emits no power: its area is zero or too small");
   // The other way: more power than a float holds.
-  expect_scene_refused(scene_text(R"(<shape type="rectangle">
+  expect_scene_refused(plane_scene(R"(<shape type="rectangle">
   <transform name="to_world"><scale value="1e18"/></transform>
   <emitter type="area"> <!--here-->
     <rgb name="radiance" value="1e10"/>
@@ -270,13 +255,13 @@ TEST_F(BadInput, ZeroPowerLight) {
 }
 
 TEST_F(BadInput, SceneWithoutLight) {
-  const std::string text = scene_text("", false);
+  const std::string text = plane_scene("", false);
   const std::string file = write("dark.xml", text);
   expect_refused(render(file), file + ":1:", "scene has no light");
 }
 
 TEST_F(BadInput, AbsurdResolutions) {
-  const std::string file = write("ok.xml", scene_text(""));
+  const std::string file = write("ok.xml", plane_scene(""));
   for (const char* res : {"0x8", "8x0", "-8x8", "8x-8", "100000x8", "8x100000", "100000x100000", "8x", "x8", "eight"}) {
     SCOPED_TRACE(res);
     expect_refused(run("render " + file + " -o " + path("out.exr") + " --res " + res), "--res:", res);
@@ -285,7 +270,7 @@ TEST_F(BadInput, AbsurdResolutions) {
   for (const char* value : {"0", "-8", "100000"}) {
     SCOPED_TRACE(value);
     const std::string width = "<integer name=\"width\" value=\"8\"/>";
-    std::string text = scene_text("");
+    std::string text = plane_scene("");
     text.replace(text.find(width), width.size(),
                  std::string("\n<integer name=\"width\" value=\"") + value + "\"/> <!--here-->\n");
     const std::string scene = write("res.xml", text);
@@ -296,7 +281,7 @@ TEST_F(BadInput, AbsurdResolutions) {
 }
 
 TEST_F(BadInput, InvalidDeviceSelectors) {
-  const std::string file = write("ok.xml", scene_text(""));
+  const std::string file = write("ok.xml", plane_scene(""));
   for (const char* selector : {"9:9", "0:99", "-1:0", "no-such-device", "1:2:3"}) {
     SCOPED_TRACE(selector);
     const Outcome r = render(file, std::string("--device '") + selector + "'");
@@ -311,7 +296,7 @@ class BadObj : public BadInput {
   void expect_obj_refused(const std::string& obj, const std::string& keyword, int obj_line = 0) {
     const std::string mesh = write("mesh.obj", obj);
     const std::string text =
-        scene_text("<shape type=\"obj\"> <!--here-->\n  <string name=\"filename\" value=\"mesh.obj\"/>\n</shape>");
+        plane_scene("<shape type=\"obj\"> <!--here-->\n  <string name=\"filename\" value=\"mesh.obj\"/>\n</shape>");
     const std::string scene = write("bad.xml", text);
     const Outcome r = render(scene);
     expect_refused(r, scene + ":" + std::to_string(marked_line(text)) + ":", keyword);
@@ -358,7 +343,7 @@ TEST_F(BadInput, DegenerateObjTrianglesAreDroppedWithOneWarning) {
         "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 0 -1\n"
         "f 1 3 2\nf 1 4 3\n"  // the floor, facing up
         "f 1 5 2\nf 2 2 3\n");  // zero-area: collinear, a repeated vertex
-  const std::string text = scene_text("<shape type=\"obj\"> <!--here-->\n  <string name=\"filename\" value=\"mesh.obj\"/>\n</shape>");
+  const std::string text = plane_scene("<shape type=\"obj\"> <!--here-->\n  <string name=\"filename\" value=\"mesh.obj\"/>\n</shape>");
   const std::string scene = write("ok.xml", text);
   const Outcome r = render(scene);
   ASSERT_EQ(r.code, 0) << r.err;

@@ -16,16 +16,7 @@ namespace fs = std::filesystem;
 using Cli = spm::test::CliTest;
 using spm::test::Outcome;
 
-const char* kTinyScene = R"(<scene version="3.0.0">
-  <sensor type="perspective">
-    <float name="fov" value="45"/>
-    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="12"/></film>
-  </sensor>
-  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>
-  <emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="5"/></emitter>
-</scene>
-)";
+const std::string kTinyScene = spm::test::plane_scene("", true, 16, 12);
 
 using spm::test::count_lines;
 
@@ -72,7 +63,7 @@ TEST_F(Cli, MalformedXmlNamesFileAndLine) {
 
 TEST_F(Cli, UnknownPluginNamesFileAndLine) {
   const std::string scene = write("bad.xml", std::string(kTinyScene).replace(
-      std::string(kTinyScene).find("rectangle"), 9, "torus"));
+      kTinyScene.find("rectangle"), 9, "torus"));
   const Outcome r = run("render " + scene + " -o " + path("o.exr"));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("bad.xml:7"), std::string::npos) << r.err;
