@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <memory>
@@ -55,15 +57,26 @@ struct RenderArgs {
   std::string profile_json, trace;
   std::optional<size_t> device_memory;
   // Overrides of the scene's <integrator type="spm"> properties.
-  std::optional<int> streams, associated, bounces;
+  std::optional<int> streams, associated, bounces, max_depth, rr_depth;
   std::optional<float> width, march_step, radius, alpha, time;
   std::optional<std::string> estimator, kernel, direct;
 };
 
 void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
+  // Given on the command line, these must be positive; left out, the scene
+  // or the derived defaults decide (render/defaults.h).
+  const auto positive = [](const auto& v, const char* flag) {
+    if (v && !(*v > 0)) throw spm::InputError(flag, "must be positive");
+  };
+  positive(a.streams, "--streams");
+  positive(a.associated, "--associated");
+  positive(a.width, "--width");
+  positive(a.radius, "--radius");
   if (a.streams) in.streams = *a.streams;
   if (a.associated) in.associated = *a.associated;
   if (a.bounces) in.max_bounces = *a.bounces;
+  if (a.max_depth) in.max_depth = *a.max_depth;
+  if (a.rr_depth) in.rr_depth = *a.rr_depth;
   if (a.width) in.width = *a.width;
   if (a.march_step) in.march_step = *a.march_step;
   if (a.radius) in.radius = *a.radius;
@@ -135,16 +148,40 @@ int cmd_render(const RenderArgs& a) {
   // and writes the image, profile and trace.
   const spm::Cluster& cluster = spm::Cluster::get();
   const bool tty = ::isatty(STDERR_FILENO);
+  // The settings in use, derived ones included (render/defaults.h), printed
+  // before the first pass and kept for the profile.
+  nlohmann::json used_json;
+  const bool timed = settings.passes == 0;
   if (cluster.root()) {
-    std::cerr << "spm: rendering " << a.scene << " at " << settings.width << "x" << settings.height << ", "
-              << (scene.integrator.time > 0 && a.settings.passes == 0 ? "for " + std::to_string(scene.integrator.time) + " s"
-                                                                       : std::to_string(settings.passes) + " pass(es)")
-              << " x " << settings.spp << " spp on " << names
-              << (cluster.size() > 1 ? " (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)" : "") << "\n";
+    settings.announce = [&](const spm::RenderUsed& u) {
+      const spm::IntegratorSettings& in = scene.integrator;
+      const auto src = [](bool given) { return given ? "" : " (derived)"; };
+      std::fprintf(stderr,
+                   "spm: rendering %s at %dx%d, %s x %d spp on %s%s\n"
+                   "spm: streams %d%s x associated %d%s, radius %.6g%s, width %.6g%s, max_depth %d, rr_depth %d, "
+                   "max_bounces %d\n",
+                   a.scene.c_str(), settings.width, settings.height,
+                   timed ? ("passes for " + std::to_string(in.time) + " s").c_str()
+                         : (std::to_string(u.passes) + " pass(es)").c_str(),
+                   u.spp, names.c_str(),
+                   cluster.size() > 1 ? (" (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)").c_str() : "",
+                   u.streams, src(in.streams > 0 && u.streams == in.streams), u.associated, src(in.associated > 0),
+                   u.radius, src(in.radius > 0), u.width, src(in.width > 0), in.max_depth, in.rr_depth,
+                   in.max_bounces);
+      used_json = {{"streams", u.streams}, {"associated", u.associated}, {"radius", u.radius},
+                   {"width", u.width},     {"spp_per_pass", u.spp},      {"passes", u.passes},
+                   {"max_depth", in.max_depth}, {"rr_depth", in.rr_depth}, {"max_bounces", in.max_bounces},
+                   {"pilot_s", u.pilot_seconds}, {"time_budget_s", in.time}};
+    };
   }
-  const auto progress = [tty](int done, int total) {
+  const auto started = std::chrono::steady_clock::now();
+  const float budget = scene.integrator.time;
+  const auto progress = [tty, started, budget](int done, int total) {
     if (total == 0) {
-      std::cerr << (tty ? "\r" : "") << "spm: pass " << done << " done" << (tty ? "" : "\n") << std::flush;
+      const double left =
+          std::max(0.0, budget - std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+      std::cerr << (tty ? "\r" : "") << "spm: " << done << " pass(es) done, " << static_cast<int>(std::ceil(left))
+                << " s left" << (tty ? "   " : "\n") << std::flush;
     } else if (tty) {
       const int width = 40, filled = width * done / total;
       std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] " << done << "/"
@@ -190,6 +227,8 @@ int cmd_render(const RenderArgs& a) {
     j["resolution"] = {settings.width, settings.height};
     j["passes"] = stats.passes;
     j["seconds"] = stats.seconds;
+    j["pilot_seconds"] = stats.pilot_seconds;
+    j["settings"] = used_json;
     for (size_t d = 0; d < devices.size(); ++d) {  // this process's (rank 0's) devices come first
       j["devices"][d]["passes"] = stats.devices[d].passes;
       j["devices"][d]["busy_seconds"] = stats.devices[d].busy_seconds;
@@ -232,23 +271,40 @@ int main(int argc, char** argv) {
                      "Device(s): P:D or a case-insensitive name substring, a comma-separated list, or 'all'; "
                      "default: first GPU, else first CPU");
   render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT, overriding the scene's film");
-  render->add_option("--spp", r.settings.spp, "Camera samples per pixel per pass")->check(CLI::PositiveNumber);
-  render->add_option("--passes", r.settings.passes, "Number of passes (each a full emit, propagate, gather)")
+  render->add_option("--spp", r.settings.spp,
+                     "Camera samples per pixel per pass; default: about one per four photons of a pass, 1 .. 64")
+      ->check(CLI::PositiveNumber);
+  render->add_option("--passes", r.settings.passes,
+                     "Number of passes (each a full emit, propagate, gather); default: the integrator's 'passes', "
+                     "else enough passes for the sampler's sample_count (the render's samples per pixel)")
       ->check(CLI::PositiveNumber);
   render->add_option("--seed", r.settings.seed, "Random seed");
   render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value (repeatable)")
       ->allow_extra_args(false);
-  render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams')");
+  render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams'); default 10000");
   render->add_option("--associated", r.associated,
-                     "Associated photons per stream, N_a (integrator 'associated')");
-  render->add_option("--width", r.width, "Stream width w: respawn sphere and deposit disk radius (integrator 'width')");
-  render->add_option("--bounces", r.bounces, "Diffuse bounces before a stream ends (integrator 'max_bounces')");
+                     "Associated photons per stream, N_a (integrator 'associated'); default 16");
+  render->add_option("--width", r.width,
+                     "Stream width w: respawn sphere and deposit disk radius (integrator 'width'); default: the radius");
+  render->add_option("--bounces", r.bounces,
+                     "Diffuse bounces before a stream ends (integrator 'max_bounces'); default -1, unlimited");
+  render->add_option("--max-depth", r.max_depth,
+                     "Longest path in segments, as Mitsuba's volpath counts (integrator 'max_depth'); default -1, "
+                     "unlimited")
+      ->check(CLI::Range(-1, 1 << 30));
+  render->add_option("--rr-depth", r.rr_depth,
+                     "Russian roulette on streams and paths from this vertex on (integrator 'rr_depth'); default 5")
+      ->check(CLI::Range(1, 1 << 30));
   render->add_option("--march-step", r.march_step,
                      "Ray-marching interval in media; 0 samples free flights exactly (integrator 'march_step')");
-  render->add_option("--radius", r.radius, "Search radius r of the estimates, first pass (integrator 'radius')");
+  render->add_option("--radius", r.radius,
+                     "Search radius r of the estimates, first pass (integrator 'radius'); default: derived from a "
+                     "pilot of the pass's streams, the distance to the 32nd nearest event");
   render->add_option("--alpha", r.alpha,
                      "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha')");
-  render->add_option("--time", r.time, "Render passes for this many seconds instead of a pass count (integrator 'time')");
+  render->add_option("--time", r.time,
+                     "Render passes for this many seconds instead of a pass count (integrator 'time'); the passes "
+                     "end within it, scene load, kernel builds and the pilot reported apart");
   render->add_option("--estimator", r.estimator,
                      "Volume estimate: 'bre' (default), the physically based beam radiance estimate; 'paper', "
                      "eq. (4) of the paper literally, kept to reproduce its figures: it has no phase function, "
@@ -276,9 +332,10 @@ int main(int argc, char** argv) {
   spm::BenchOptions bench_options;
   std::string bench_device;
   auto* bench = app.add_subcommand(
-      "bench", "Time a fixed suite (Fig. 3 (a), (b), scaling in streams and associated photons) stage by stage and "
+      "bench", "Time a fixed suite (Fig. 3 (a), (b), scaling in streams and associated photons, a global fog box) "
+      "stage by stage and "
       "kernel by kernel: medians of --repeat one-pass renders");
-  bench->add_option("--scenes", bench_options.scenes_dir, "Directory holding cornell_fog.xml")
+  bench->add_option("--scenes", bench_options.scenes_dir, "Directory holding cornell_fog.xml and fog_box.xml")
       ->check(CLI::ExistingDirectory);
   bench->add_option("--repeat", bench_options.repeat, "Timed repetitions after one warm-up")
       ->check(CLI::PositiveNumber);

@@ -33,7 +33,7 @@ __kernel void spm_deposit(const __global uint* queue, uint count SPM_STREAM_PARA
   vstore3(st_phi[s].xyz, 0, r->flux);
   vstore3(normal, 0, r->normal);
   r->stream = st_id[s];
-  r->event_photon = ((st_events[s] - 1u) << 16) | j;
+  r->depth_photon = (st_depth[s] << 16) | j;
   r->flags = dir.w > 0.0f ? SPM_RECORD_HAD_EVENT : 0u;
   r->pad = 0;
 }

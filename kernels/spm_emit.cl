@@ -27,7 +27,7 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, __global uint* queue, uint count SPM_ST
     sample_area_light_point(&sc, l, u0.yzw, &p, &n);
     d = to_world(sample_cosine_hemisphere(u1.x, u1.y), n);
     power = SPM_PI * l->area * load3(l->emission);
-    p = offset_origin(p, n);
+    p = offset_origin(p, n, sc.extent);
   } else if (l->type == SPM_LIGHT_POINT) {
     p = load3(l->position);
     d = sample_uniform_sphere(u1.x, u1.y);
@@ -43,7 +43,9 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, __global uint* queue, uint count SPM_ST
   }
   st_origin[slot] = (float4)(p, 0.0f);
   st_direction[slot] = (float4)(d, 0.0f);
-  st_phi[slot] = (float4)(power / (prob * (float)pass_streams * (float)associated), 0.0f);
+  const float3 phi = power / (prob * (float)pass_streams * (float)associated);
+  st_phi[slot] = (float4)(phi, 0.0f);
+  st_flux0[slot] = (float)associated * max_comp(phi);
   st_event_pos[slot] = (float4)(p, 0.0f);
   st_event_normal[slot] = (float4)(n, 0.0f);
   st_alive[slot] = associated;
@@ -51,6 +53,7 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, __global uint* queue, uint count SPM_ST
   st_medium[slot] = l->medium;
   st_bounces[slot] = 0;
   st_events[slot] = 1; /* event 0 was the emission */
+  st_depth[slot] = 0;
   st_medium_events[slot] = 0;
   st_state[slot] = SPM_ACT_DISK;
   st_flags[slot] = 0;

@@ -7,7 +7,9 @@
  * adds the beam radiance estimate over the volumetric stream map and is
  * attenuated by the medium's transmittance (paper eq. 2); at the first diffuse
  * surface it adds the surface photon map's estimate and, by default, direct
- * light by next-event estimation with shadow rays that carry transmittance. */
+ * light by next-event estimation with shadow rays that carry transmittance.
+ * When the maps are gathered in parts (too large for the device at once),
+ * only the first part's launch adds emission and next-event estimation. */
 #include "spm_types.h"
 #include "lib/bsdf.h"
 #include "lib/camera.h"
@@ -20,6 +22,7 @@
 
 /* What the estimates need, bundled for the path loop. */
 typedef struct SpmMaps {
+  uint direct_terms; /* 0: the photon estimates alone (a later part of the maps) */
   SpmGrid volume_grid;
   const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
@@ -47,16 +50,17 @@ inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float 
     const __global SpmShape* shape = &s->shapes[surf.shape];
     if (s->materials[shape->material].type != SPM_MAT_NULL) return (float3)(0.0f);
     tr *= medium_transmittance(s, medium, h.t);
-    medium = target_medium(shape, surf.ng, d);
+    medium = target_medium(shape, surf.ng, d, medium);
     o = leave_surface(&surf, d);
     remaining -= h.t;
   }
   return (float3)(0.0f);
 }
 
-/* Direct light reflected by a diffuse surface towards -d. */
+/* Direct light reflected by a diffuse surface towards -d; `medium` is the
+ * one the camera path arrived in. */
 inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __global SpmMaterial* m, float3 d,
-                             SpmRng rng) {
+                             int medium, SpmRng rng) {
   const float3 n = facing_normal(surf, d);
   float3 wi, lp, ln;
   float dist;
@@ -66,12 +70,31 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   const float3 o = leave_surface(surf, wi);
   /* Stop short of an area light's own surface; point lights have none. */
   const float reach = dot(ln, ln) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
-  const int medium = target_medium(&s->shapes[surf->shape], surf->ng, wi);
-  const float3 tr = shadow_transmittance(s, o, wi, reach, medium);
+  const float3 tr =
+      shadow_transmittance(s, o, wi, reach, target_medium(&s->shapes[surf->shape], surf->ng, wi, medium));
   return load3(m->reflectance) * SPM_INV_PI * cos_x * li * tr;
 }
 
-/* One camera sample's radiance. */
+/* Specular vertices a camera path follows at most: a safety cap, so that
+ * the vertices of a sample (null crossings included, at most 4 per specular
+ * one) fit the block of 256 RNG events each sample has. */
+#define SPM_MAX_CAMERA_SPECULAR 60u
+
+/* Largest depth of a photon record that a camera path with `specular`
+ * specular vertices may use: the path then has depth + specular + 1
+ * segments, at most max_depth (METHOD.md 10; SPM_NONE: unlimited). */
+inline uint record_depth_limit(uint max_depth, uint specular) {
+  if (max_depth == SPM_NONE) return SPM_NONE;
+  return max_depth > specular + 1u ? max_depth - specular - 1u : 0u;
+}
+
+/* Whether a path of `segments` segments is within max_depth. */
+inline bool within_depth(uint segments, uint max_depth) { return max_depth == SPM_NONE || segments <= max_depth; }
+
+/* One camera sample's radiance. Path depths count as Mitsuba's volpath
+ * counts them: emission seen after `specular` specular vertices has
+ * specular + 1 segments, direct light at the diffuse vertex that ends the
+ * chain specular + 2. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
                        float tmin, float tmax, uint max_depth, SpmRng rng, uint* tests) {
   float3 L = (float3)(0.0f);
@@ -79,14 +102,15 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
   int medium = cam->medium;
   uint specular = 0;
   const uint first_event = rng.event;
-  for (uint vertex = 0; vertex < 4 * max_depth + 4; ++vertex) {
+  for (uint vertex = 0; vertex < 4u * SPM_MAX_CAMERA_SPECULAR + 4u; ++vertex) {
     rng.event = first_event + vertex;
     SpmHit h;
     const bool hit = scene_trace(s, o + tmin * d, d, tmax - tmin, &h);
     const float t_end = hit ? h.t + tmin : tmax;
     if (medium >= 0) {
       L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
-                                t_end, maps->radius, maps->kernel_type, maps->estimator, tests);
+                                t_end, maps->radius, maps->kernel_type, maps->estimator,
+                                record_depth_limit(max_depth, specular), tests);
     }
     /* Escaping: outside a medium there is no environment light in the
      * supported subset, inside one the light has all been gathered. */
@@ -98,32 +122,32 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const __global SpmMaterial* m = &s->materials[shape->material];
     /* Emission seen directly or through specular chains: paths end at their
      * first diffuse vertex, whose light NEE and the photon maps provide. */
-    if (shape->light >= 0 && dot(d, surf.ng) < 0.0f) {
+    if (maps->direct_terms && shape->light >= 0 && dot(d, surf.ng) < 0.0f && within_depth(specular + 1u, max_depth)) {
       L += beta * load3(s->lights[shape->light].emission);
     }
     tmin = 0.0f;
     tmax = SPM_INF;
     if (m->type == SPM_MAT_NULL) {
-      medium = target_medium(shape, surf.ng, d);
+      medium = target_medium(shape, surf.ng, d, medium);
       o = leave_surface(&surf, d);
       continue;
     }
     if (m->type == SPM_MAT_DIFFUSE) {
       if (reflects_from(m, &surf, d)) {
-        const bool nee = maps->direct == SPM_DIRECT_NEE;
-        if (nee) L += beta * direct_diffuse(s, &surf, m, d, rng);
+        const bool nee = maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth);
+        if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, rng);
         const float3 flux = surface_estimate(&maps->surface_grid, maps->surface_flux, surf.p, facing_normal(&surf, d),
-                                             maps->radius, maps->kernel_type);
+                                             maps->radius, maps->kernel_type, record_depth_limit(max_depth, specular));
         L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
       }
       break;
     }
-    if (++specular > max_depth) break;
+    if (++specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(specular + 1u, max_depth)) break;
     float3 next;
     const float f = specular_bounce(m, &surf, d, rng4(rng, SPM_RNG_BSDF, 0).x, true, &next);
     if (f == 0.0f) break;
     beta *= f;
-    medium = target_medium(shape, surf.ng, next);
+    medium = target_medium(shape, surf.ng, next, medium);
     o = leave_surface(&surf, next);
     d = next;
   }
@@ -131,7 +155,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
 }
 
 __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global float4* film,
-                         __global uint* tests_out, __global uint* errors, uint first_pixel, uint count, uint spp, uint max_depth, uint seed, uint pass, float radius,
+                         __global uint* tests_out, __global uint* errors, uint first_pixel, uint count, uint spp,
+                         uint max_depth, uint direct_terms, uint seed, uint pass, float radius,
                          uint kernel_type, uint estimator, uint direct, const __global SpmGridInfo* volume_info,
                          const __global uint* volume_start, const __global float4* volume_pos,
                          const __global uint* volume_items, const __global SpmVolumeRecord* volume,
@@ -153,13 +178,13 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
   maps.kernel_type = kernel_type;
   maps.estimator = estimator;
   maps.direct = direct;
+  maps.direct_terms = direct_terms;
   uint tests = 0;
   const uint px = pixel % camera->width;
   const uint py = pixel / camera->width;
   float3 sum = (float3)(0.0f);
   for (uint i = 0; i < spp; ++i) {
-    /* Event index: a block of 256 per sample, one per path vertex (the host
-     * caps max_depth so that 4 max_depth + 4 < 256). */
+    /* Event index: a block of 256 per sample, one per path vertex. */
     SpmRng rng = rng_make(seed, pass, pixel, i * 256u);
     const float4 u = rng4(rng, SPM_RNG_CAMERA, 0);
     const float2 off = sample_filter(camera, u.x, u.y);

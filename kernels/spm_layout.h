@@ -41,9 +41,9 @@
   F(SpmCamera, width) F(SpmCamera, height) F(SpmCamera, medium) F(SpmCamera, filter)            \
   F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)                                       \
   F(SpmVolumeRecord, position) F(SpmVolumeRecord, stream) F(SpmVolumeRecord, direction)         \
-  F(SpmVolumeRecord, event) F(SpmVolumeRecord, flux) F(SpmVolumeRecord, medium)                                          \
+  F(SpmVolumeRecord, depth) F(SpmVolumeRecord, flux) F(SpmVolumeRecord, medium)                                          \
   F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
-  F(SpmSurfaceRecord, event_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
+  F(SpmSurfaceRecord, depth_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
   F(SpmSurfaceRecord, normal)                                                                   \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 

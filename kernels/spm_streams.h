@@ -20,6 +20,8 @@
   X(int, medium)          /* medium the leader travels in, -1: none */                         \
   X(uint, bounces)        /* diffuse bounces so far */                                         \
   X(uint, events)         /* events so far = RNG event index of the next one */                \
+  X(uint, depth)          /* path vertices so far, as Mitsuba counts them (METHOD.md 10) */    \
+  X(float, flux0)         /* max over RGB of the emitted stream flux N_a phi (roulette) */     \
   X(uint, medium_events)  /* medium interactions so far (safety cap) */                        \
   X(uint, state)          /* march: SPM_EV_*; interact onwards: SPM_ACT_* bits */              \
   X(uint, flags)          /* SPM_STREAM_HAD_EVENT */                                           \
@@ -52,12 +54,18 @@
 #define SPM_COUNT_EV_NULL 8
 #define SPM_COUNT_EV_ESCAPE 9
 #define SPM_COUNT_EV_BLACK 10 /* absorbed at the black back of a one-sided surface */
+#define SPM_COUNT_END_ROULETTE 11 /* streams ended by Russian roulette (METHOD.md 10) */
+#define SPM_COUNT_END_DEPTH 12    /* streams ended by max_depth */
+#define SPM_COUNT_END_BOUNCES 13  /* streams ended by max_bounces */
+#define SPM_COUNT_STREAMS 14      /* streams emitted (counted on the host) */
 #define SPM_COUNTERS 16
 
 
-/* Safety caps (METHOD.md 3): a stream ends after this many medium events or
- * events in all; the host reports how many streams the caps ended. Events
- * must stay below 2^16 for the surface record key (event << 16 | photon). */
+/* Safety caps (METHOD.md 10): a stream ends after this many medium events or
+ * events in all; the host reports how many streams the caps ended. Roulette
+ * and max_depth end streams long before them in any scene a path tracer can
+ * render. Events must stay below 2^16 for the surface record key
+ * (depth << 16 | photon). */
 #define SPM_MAX_MEDIUM_EVENTS 1024u
 #define SPM_MAX_EVENTS 4096u
 

@@ -153,13 +153,14 @@ typedef struct SpmCamera {
 } SpmCamera;
 
 /* Volumetric stream map record (METHOD.md 3, interact): one per medium event
- * of a stream, stored before absorption. (stream, event) orders the records
- * deterministically whatever order the device appended them in. */
+ * of a stream, stored before absorption. Every medium event adds a path
+ * vertex, so (stream, depth) orders the records deterministically whatever
+ * order the device appended them in. */
 typedef struct SpmVolumeRecord {
   spm_float position[3];
   spm_uint stream; /* stream id within the pass */
   spm_float direction[3]; /* the leader's direction of travel at the event */
-  spm_uint event;  /* the stream's event index */
+  spm_uint depth;  /* path vertices from the light up to this event (METHOD.md 10) */
   spm_float flux[3]; /* n * phi: the whole stream's flux (RGB) */
   spm_int medium;    /* the medium the event happened in */
 } SpmVolumeRecord;
@@ -173,7 +174,7 @@ typedef struct SpmSurfaceRecord {
   spm_float position[3];
   spm_uint stream;
   spm_float direction[3]; /* direction of travel of the arriving photon */
-  spm_uint event_photon;  /* event << 16 | photon index */
+  spm_uint depth_photon;  /* depth << 16 | photon index (depth: path vertices, METHOD.md 10) */
   spm_float flux[3];      /* phi (RGB) */
   spm_uint flags;
   spm_float normal[3];    /* geometric normal on the side the photon arrived from */

@@ -19,7 +19,8 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr uint32_t kMaxMarchSteps = 1u << 22;  // SPM_MAX_MARCH_STEPS (spm_march.cl)
 
 // Counter purposes (kernels/lib/rng.h).
-constexpr uint32_t kRngBsdf = 3, kRngDistance = 4, kRngPhase = 5, kRngAbsorb = 6, kRngEmit = 8, kRngDeposit = 9;
+constexpr uint32_t kRngBsdf = 3, kRngDistance = 4, kRngPhase = 5, kRngAbsorb = 6, kRngEmit = 8, kRngDeposit = 9,
+                   kRngRoulette = 10;
 
 // March outcomes (SPM_EV_*).
 enum class Event { Medium, Surface, Escape };
@@ -98,9 +99,18 @@ V3 to_world(V3 v, V3 n) {
   return v.x * t + v.y * b + v.z * n;
 }
 
-V3 offset_origin(V3 p, V3 side_normal) {
-  const float scale = 1.0f + max_comp(vabs(p));
+V3 offset_origin(V3 p, V3 side_normal, float extent) {
+  const float scale = 0.01f * extent + max_comp(vabs(p));
   return p + side_normal * (2e-5f * scale);
+}
+
+// kernels/lib/scene.h's SpmScene::extent.
+float scene_extent(const SceneTables& sc) {
+  if (sc.prims.empty()) return 0.0f;
+  const SpmBvhNode& root = sc.nodes[0];
+  return max_comp(V3{std::fmax(std::fabs(root.lo[0]), std::fabs(root.hi[0])),
+                     std::fmax(std::fabs(root.lo[1]), std::fabs(root.hi[1])),
+                     std::fmax(std::fabs(root.lo[2]), std::fabs(root.hi[2]))});
 }
 
 V3 sample_cosine_hemisphere(float u1, float u2) {
@@ -352,6 +362,7 @@ void note_geometry(const SceneTables& sc, V3 o, V3 d, const Hit& hit, bool found
 struct Surface {
   V3 p, ng, ns;
   uint32_t shape = 0;
+  float extent = 0;
 };
 
 Surface surface_at(const SceneTables& sc, V3 o, V3 d, const Hit& h) {
@@ -359,6 +370,7 @@ Surface surface_at(const SceneTables& sc, V3 o, V3 d, const Hit& h) {
   Surface s;
   s.p = o + h.t * d;
   s.shape = p.shape;
+  s.extent = scene_extent(sc);
   if (p.kind == SPM_PRIM_SPHERE) {
     s.ng = normalize(s.p - load3(p.p0));
     s.ns = s.ng;
@@ -380,7 +392,10 @@ Surface surface_at(const SceneTables& sc, V3 o, V3 d, const Hit& h) {
   return s;
 }
 
-int target_medium(const SpmShape& shape, V3 ng, V3 d) { return dot(ng, d) > 0.0f ? shape.exterior : shape.interior; }
+int target_medium(const SpmShape& shape, V3 ng, V3 d, int current) {
+  if (shape.interior < 0 && shape.exterior < 0) return current;
+  return dot(ng, d) > 0.0f ? shape.exterior : shape.interior;
+}
 
 // ---- kernels/lib/bsdf.h ----------------------------------------------------------
 
@@ -400,7 +415,9 @@ bool reflects_from(const SpmMaterial& m, const Surface& s, V3 d) { return m.twos
 
 V3 facing_normal(const Surface& s, V3 d) { return dot(d, s.ng) < 0.0f ? s.ns : -s.ns; }
 
-V3 leave_surface(const Surface& s, V3 d) { return offset_origin(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng); }
+V3 leave_surface(const Surface& s, V3 d) {
+  return offset_origin(s.p, dot(d, s.ng) > 0.0f ? s.ng : -s.ng, s.extent);
+}
 
 // specular_bounce with radiance = false; `reflected` tells the dielectric's choice.
 float specular_bounce(const SpmMaterial& m, const Surface& s, V3 d, float u, V3* out, bool* reflected, Margins& mg) {
@@ -502,8 +519,30 @@ const char* to_string(StreamEnd end) {
     case StreamEnd::BlackSurface: return "black surface";
     case StreamEnd::MediumCap: return "medium-event cap";
     case StreamEnd::EventCap: return "event cap";
+    case StreamEnd::Roulette: return "Russian roulette";
+    case StreamEnd::MaxDepth: return "max_depth";
   }
   return "?";
+}
+
+// spm_interact's goes_on: 0 when the stream ends after vertex k, else the
+// survivors' weight 1 / q of Russian roulette (METHOD.md 10).
+float goes_on(uint32_t k, V3 flux, float flux0, const StreamSettings& set, const Rng& rng, StreamResult& out,
+              Margins& margins) {
+  if (!(set.max_depth == SPM_NONE || k + 2u <= set.max_depth)) {
+    out.end = StreamEnd::MaxDepth;
+    return 0.0f;
+  }
+  if (k < set.rr_depth) return 1.0f;
+  const float q = std::fmin(0.95f, max_comp(flux) / flux0);
+  const float u = rng4(rng, kRngRoulette, 0).v[0];
+  if (q < 0.95f) margins.note(u - q, "Russian roulette");
+  if (!(u < q)) {
+    out.end = StreamEnd::Roulette;
+    ++out.roulette;
+    return 0.0f;
+  }
+  return 1.0f / q;
 }
 
 StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint32_t id, int ulps) {
@@ -523,7 +562,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
     sample_area_light_point(sc, l, u0.v[1], u0.v[2], u0.v[3], &p, &n);
     d = to_world(sample_cosine_hemisphere(u1.v[0], u1.v[1]), n);
     power = kPi * l.area * load3(l.emission);
-    p = offset_origin(p, n);
+    p = offset_origin(p, n, scene_extent(sc));
   } else if (l.type == SPM_LIGHT_POINT) {
     p = load3(l.position);
     d = sample_uniform_sphere(u1.v[0], u1.v[1]);
@@ -536,9 +575,12 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
   }
   V3 origin = p, dir = d;
   V3 phi = power / (prob * (float)set.streams * (float)set.associated);
+  const float flux0 = (float)set.associated * max_comp(phi);
   uint32_t alive = set.associated;
   int medium = l.medium;
-  uint32_t bounces = 0, events = 1, medium_events = 0;  // event 0 was the emission
+  uint32_t bounces = 0, events = 1, medium_events = 0, depth = 0;  // event 0 was the emission
+  // spm_interact's depth_counts and goes_on (METHOD.md 10).
+  const auto counts = [&](uint32_t k) { return set.max_depth == SPM_NONE || k + 1u <= set.max_depth; };
   bool had_event = false;
 
   for (;;) {
@@ -581,30 +623,44 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
       ++out.escape_events;
       out.end = StreamEnd::Escaped;
     } else if (state == Event::Medium) {
-      const V3 x = origin + t * dir;
-      const SpmMedium& m = sc.media[medium];
-      SpmVolumeRecord r{};
-      store3(x, r.position);
-      store3(dir, r.direction);
-      store3((float)n * phi, r.flux);
-      r.stream = id;
-      r.event = event;
-      r.medium = medium;
-      out.volume.push_back(r);
+      const uint32_t k = depth + 1;
       ++out.medium_events;
-      out.collapsed_medium_events += out.collapsed;
-      const U4 u = rng4(rng, kRngPhase, 0);
-      const float g = m.phase == SPM_PHASE_HG ? m.g : 0.0f;
-      dir = sample_phase(dir, g, u.v[0], u.v[1]);
-      origin = x;
-      event_pos = x;
-      scale = survival(load3(m.albedo));
-      had_event = true;
-      act = SPM_ACT_ABSORB | SPM_ACT_SPHERE;
-      if (++medium_events >= SPM_MAX_MEDIUM_EVENTS) {
+      if (!counts(k)) {
         act = SPM_ACT_END;
-        ++out.capped;
-        out.end = StreamEnd::MediumCap;
+        out.end = StreamEnd::MaxDepth;
+      } else {
+        const V3 x = origin + t * dir;
+        const SpmMedium& m = sc.media[medium];
+        SpmVolumeRecord r{};
+        store3(x, r.position);
+        store3(dir, r.direction);
+        const V3 flux = (float)n * phi;
+        store3(flux, r.flux);
+        r.stream = id;
+        r.depth = k;
+        r.medium = medium;
+        out.volume.push_back(r);
+        out.collapsed_medium_events += out.collapsed;
+        depth = k;
+        had_event = true;
+        const V3 albedo = load3(m.albedo);
+        const float w = goes_on(k, flux * albedo, flux0, set, rng, out, margins);
+        if (w == 0.0f) {
+          act = SPM_ACT_END;
+        } else if (++medium_events >= SPM_MAX_MEDIUM_EVENTS) {
+          act = SPM_ACT_END;
+          ++out.capped;
+          out.end = StreamEnd::MediumCap;
+        } else {
+          const U4 u = rng4(rng, kRngPhase, 0);
+          const float g = m.phase == SPM_PHASE_HG ? m.g : 0.0f;
+          dir = sample_phase(dir, g, u.v[0], u.v[1]);
+          origin = x;
+          event_pos = x;
+          scale = survival(albedo);
+          scale.factor = scale.factor * w;
+          act = SPM_ACT_ABSORB | SPM_ACT_SPHERE;
+        }
       }
     } else {
       const Surface surf = surface_at(sc, origin, dir, h);
@@ -614,11 +670,12 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
       margins.note(dot(dir, surf.ng), "side of the surface arriving");
       if (mat.type == SPM_MAT_NULL) {
         // A medium boundary is no event: the stream just changes medium.
-        medium = target_medium(shape, surf.ng, dir);
+        medium = target_medium(shape, surf.ng, dir, medium);
         origin = leave_surface(surf, dir);
         ++out.null_events;
       } else if (mat.type != SPM_MAT_DIFFUSE) {
         // Collapse: the associated photons' flux goes to the leader.
+        const uint32_t k = depth + 1;
         phi = (float)n * phi;
         n = 1;
         alive = 1;
@@ -631,12 +688,19 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
           out.end = StreamEnd::BlackSurface;
         } else {
           if (mat.type == SPM_MAT_DIELECTRIC) ++(reflected ? out.fresnel_reflections : out.fresnel_refractions);
-          margins.note(dot(next, surf.ng), "side of the surface leaving");
-          dir = next;
-          medium = target_medium(shape, surf.ng, next);
-          origin = leave_surface(surf, next);
-          had_event = true;
           ++out.specular_events;
+          depth = k;
+          had_event = true;
+          const float w = goes_on(k, phi, flux0, set, rng, out, margins);
+          if (w == 0.0f) {
+            act = SPM_ACT_END;
+          } else {
+            margins.note(dot(next, surf.ng), "side of the surface leaving");
+            phi = phi * w;
+            dir = next;
+            medium = target_medium(shape, surf.ng, next, medium);
+            origin = leave_surface(surf, next);
+          }
         }
       } else if (!reflects_from(mat, surf, dir)) {
         // The back of a one-sided diffuse surface is black (Mitsuba).
@@ -644,25 +708,39 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
         ++out.black_events;
         out.end = StreamEnd::BlackSurface;
       } else {
+        const uint32_t k = depth + 1;
         ++out.diffuse_events;
-        out.collapsed_deposits += out.collapsed;
-        event_pos = surf.p;
-        event_dir = dir;
-        event_had_event = had_event;
-        event_normal = dot(dir, surf.ng) < 0.0f ? surf.ng : -surf.ng;
-        had_event = true;
-        if (++bounces >= set.max_bounces) {
-          act = SPM_ACT_DEPOSIT | SPM_ACT_END;
-          out.end = StreamEnd::MaxBounces;
+        if (!counts(k)) {
+          act = SPM_ACT_END;
+          out.end = StreamEnd::MaxDepth;
         } else {
-          const U4 u = rng4(rng, kRngBsdf, 0);
-          const V3 next = to_world(sample_cosine_hemisphere(u.v[0], u.v[1]), facing_normal(surf, dir));
-          margins.note(dot(next, surf.ng), "side of the surface leaving");
-          dir = next;
-          medium = target_medium(shape, surf.ng, next);
-          origin = leave_surface(surf, next);
-          scale = survival(load3(mat.reflectance));
-          act = SPM_ACT_DEPOSIT | SPM_ACT_ABSORB | SPM_ACT_DISK;
+          out.collapsed_deposits += out.collapsed;
+          event_pos = surf.p;
+          event_dir = dir;
+          event_had_event = had_event;
+          event_normal = dot(dir, surf.ng) < 0.0f ? surf.ng : -surf.ng;
+          had_event = true;
+          depth = k;
+          const V3 reflectance = load3(mat.reflectance);
+          if (++bounces >= set.max_bounces) {
+            act = SPM_ACT_DEPOSIT | SPM_ACT_END;
+            out.end = StreamEnd::MaxBounces;
+          } else {
+            const float w = goes_on(k, (float)n * phi * reflectance, flux0, set, rng, out, margins);
+            if (w == 0.0f) {
+              act = SPM_ACT_DEPOSIT | SPM_ACT_END;
+            } else {
+              const U4 u = rng4(rng, kRngBsdf, 0);
+              const V3 next = to_world(sample_cosine_hemisphere(u.v[0], u.v[1]), facing_normal(surf, dir));
+              margins.note(dot(next, surf.ng), "side of the surface leaving");
+              dir = next;
+              medium = target_medium(shape, surf.ng, next, medium);
+              origin = leave_surface(surf, next);
+              scale = survival(reflectance);
+              scale.factor = scale.factor * w;
+              act = SPM_ACT_DEPOSIT | SPM_ACT_ABSORB | SPM_ACT_DISK;
+            }
+          }
         }
       }
     }
@@ -690,7 +768,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
         store3(phi, r.flux);
         store3(event_normal, r.normal);
         r.stream = id;
-        r.event_photon = (event << 16) | j;
+        r.depth_photon = (depth << 16) | j;
         r.flags = event_had_event ? SPM_RECORD_HAD_EVENT : 0u;
         out.surface.push_back(r);
       }

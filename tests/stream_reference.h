@@ -29,6 +29,8 @@ enum class StreamEnd {
   BlackSurface,  // the back of a one-sided diffuse surface or mirror
   MediumCap,     // SPM_MAX_MEDIUM_EVENTS medium events
   EventCap,      // SPM_MAX_EVENTS events
+  Roulette,      // Russian roulette after rr_depth vertices
+  MaxDepth,      // no later vertex within max_depth
 };
 
 const char* to_string(StreamEnd end);
@@ -47,7 +49,7 @@ struct StreamResult {
   // What happened, for coverage checks; each also counts as an SPM_COUNT_EV_*.
   uint32_t light = 0;  // index of the emitting light
   uint32_t medium_events = 0, diffuse_events = 0, specular_events = 0, null_events = 0;
-  uint32_t escape_events = 0, black_events = 0, capped = 0;
+  uint32_t escape_events = 0, black_events = 0, capped = 0, roulette = 0;
   uint32_t fresnel_reflections = 0, fresnel_refractions = 0;
   bool collapsed = false;  // a specular event collapsed the stream
   // Diffuse and medium events after the collapse (caustics, volumetric caustics).
@@ -66,7 +68,7 @@ struct StreamResult {
 };
 
 // Stream `id` of the pass described by `settings` (streams, associated, width,
-// max_bounces, march_step, seed, pass) in the flattened scene `scene`.
+// max_bounces, max_depth, rr_depth, march_step, seed, pass) in the flattened scene `scene`.
 // `ulps` > 0 moves the result of every sqrt, exp, log, sin, cos, ... by that
 // many ulps up or down, as another math library might round it: comparing
 // such a run with the plain one measures how much float rounding can move

@@ -202,6 +202,27 @@ TEST_F(BadInput, HgAsymmetryOutsideOpenInterval) {
                        "non-finite number 'nan' in property 'g'");
 }
 
+TEST_F(BadInput, PathDepthsOutOfRange) {
+  expect_scene_refused(plane_scene("<integrator type=\"spm\">\n<integer name=\"max_depth\" value=\"-2\"/> "
+                                   "<!--here-->\n</integrator>"),
+                       "max_depth must be at least -1");
+  expect_scene_refused(plane_scene("<integrator type=\"spm\">\n<integer name=\"rr_depth\" value=\"0\"/> "
+                                   "<!--here-->\n</integrator>"),
+                       "rr_depth must be at least 1");
+}
+
+TEST_F(BadInput, UndecidableMediumRegion) {
+  // An open rectangle names fog on its front side only: rays from the light
+  // that meet its front are in fog, the others in the sensor's vacuum.
+  expect_scene_refused(plane_scene("<medium type=\"homogeneous\" id=\"fog\"/>\n"
+                                   "<shape type=\"rectangle\"><transform name=\"to_world\"><scale value=\"3\"/>"
+                                   "<translate y=\"1\" z=\"-1\"/></transform><ref name=\"exterior\" id=\"fog\"/>"
+                                   "</shape>\n<emitter type=\"point\"> <!--here-->\n"
+                                   "<point name=\"position\" x=\"0\" y=\"1\" z=\"0\"/></emitter>",
+                                   false),
+                       "cannot tell which medium this emitter sits in");
+}
+
 TEST_F(BadInput, ZeroAreaLight) {
   // A rectangle scaled to zero in one axis, with an area emitter.
   expect_scene_refused(plane_scene(R"(<shape type="rectangle">

@@ -30,11 +30,12 @@ double phase_hg(double cos_theta, double g) {
 }
 
 // METHOD.md 5 written out directly: every record, no grid.
+// Records deeper than max_depth are left out (METHOD.md 10).
 dvec3 beam_reference(const std::vector<SpmVolumeRecord>& records, const SpmMedium& m, int medium, dvec3 o, dvec3 d,
-                     double t0, double t1, double r, int kernel, int estimator) {
+                     double t0, double t1, double r, int kernel, int estimator, uint32_t max_depth) {
   dvec3 sum(0.0);
   for (const auto& rec : records) {
-    if (rec.medium != medium) continue;
+    if (rec.medium != medium || rec.depth > max_depth) continue;
     const dvec3 x = v3(rec.position);
     const double t = glm::dot(x - o, d);
     if (t < t0 || t > t1) continue;
@@ -76,10 +77,10 @@ SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& rec
           dev.upload(spm::surface_item_positions(grid, records)), dev.upload(spm::surface_item_flux(grid, records))};
 }
 
-class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int>> {};
+class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int, uint32_t>> {};
 
 TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
-  const auto [kernel, estimator] = GetParam();
+  const auto [kernel, estimator, max_depth] = GetParam();
   std::mt19937 rng(99);
   std::uniform_real_distribution<float> pos(-20.0f, 20.0f), flux(0.0f, 2.0f), unit(-1.0f, 1.0f);
   SpmMedium medium{};
@@ -100,6 +101,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
     const glm::vec3 d = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)) + glm::vec3(1e-3f));
     for (int c = 0; c < 3; ++c) r.direction[c] = d[c];
     r.medium = rng() % 8 == 0 ? 1 : 0;  // a few records of another medium must be ignored
+    r.depth = 1 + rng() % 6;
   }
   const float radius = 0.8f;  // small against the box: long rays cross many cells
   auto& dev = spm::test::device();
@@ -119,14 +121,15 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
   spm::set_args(k, u.info, u.start, u.pos, u.items, u.records, media, ob, db, out, cl_uint(n), cl_int(0), radius,
-                cl_uint(kernel), cl_uint(estimator));
+                cl_uint(kernel), cl_uint(estimator), cl_uint(max_depth));
   dev.launch("beam_test", k, n);
   const auto got = dev.download<cl_float4>(out, n);
   int nonzero = 0;
   for (int i = 0; i < n; ++i) {
     const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
     const dvec3 d(dirs[i].s[0], dirs[i].s[1], dirs[i].s[2]);
-    const dvec3 ref = beam_reference(records, medium, 0, o, d, origins[i].s[3], dirs[i].s[3], radius, kernel, estimator);
+    const dvec3 ref =
+        beam_reference(records, medium, 0, o, d, origins[i].s[3], dirs[i].s[3], radius, kernel, estimator, max_depth);
     if (ref.x > 0) ++nonzero;
     for (int c = 0; c < 3; ++c) {
       // Float rounding (Epanechnikov's 1 - d^2/r^2 near the edge) stays well
@@ -139,8 +142,10 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   EXPECT_GT(nonzero, n / 2);
 }
 
+// Depth limits: none, and 3 of the records' depths 1 .. 6.
 INSTANTIATE_TEST_SUITE_P(KernelsAndEstimators, BeamEstimate,
-                         ::testing::Combine(::testing::Values(0, 1), ::testing::Values(0, 1)));
+                         ::testing::Combine(::testing::Values(0, 1), ::testing::Values(0, 1),
+                                            ::testing::Values(SPM_NONE, 3u)));
 
 TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   std::mt19937 rng(5);
@@ -158,6 +163,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
     r.normal[1] = floor ? 1.0f : 0.0f;
     for (int c = 0; c < 3; ++c) r.flux[c] = u(rng);
     r.flags = u(rng) < 0.3f ? 0u : SPM_RECORD_HAD_EVENT;
+    r.depth_photon = (1u + rng() % 6) << 16;
   }
   const float radius = 1.0f;
   auto& dev = spm::test::device();
@@ -177,6 +183,8 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   for (const float cell : {spm::kSurfaceCell, 0.3f, 3.0f}) {
     for (const int kernel : {0, 1}) {
       for (const bool skip : {false, true}) {
+        // Records deeper than the limit are left out (METHOD.md 10).
+        const uint32_t max_depth = skip ? 3u : SPM_NONE;
         // The gather's grid holds only the records it uses (used_surface_records).
         const auto used = spm::used_surface_records(records, skip);
         std::vector<glm::vec3> centres;
@@ -184,7 +192,8 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
         const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(used, radius)
                                                                : spm::build_point_grid(centres, cell * radius);
         const SurfaceBuffers up = upload(dev, used, grid);
-        spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(kernel));
+        spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(kernel),
+                      cl_uint(max_depth));
         dev.launch("surface_test", k, n);
         const auto got = dev.download<cl_float4>(out, n);
         for (int i = 0; i < n; ++i) {
@@ -192,7 +201,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
           const dvec3 nq(normals[i].s[0], normals[i].s[1], normals[i].s[2]);
           dvec3 ref(0.0);
           for (const auto& r : records) {
-            if (skip && !(r.flags & SPM_RECORD_HAD_EVENT)) continue;
+            if ((skip && !(r.flags & SPM_RECORD_HAD_EVENT)) || (r.depth_photon >> 16) > max_depth) continue;
             if (glm::dot(v3(r.normal), nq) <= 0) continue;
             const dvec3 off = v3(r.position) - x;
             const double h = glm::dot(off, nq), d3 = glm::dot(off, off);
@@ -232,7 +241,7 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
-  spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(0));
+  spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(0), cl_uint(SPM_NONE));
   dev.launch("surface_test", k, n);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<double> estimates;

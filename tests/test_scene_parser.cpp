@@ -1061,7 +1061,7 @@ TEST(SceneParser, OtherIntegratorIsIgnoredUnchecked) {
   <whatever name="x"/>
 </integrator>)");
   EXPECT_FALSE(s.integrator.present);
-  EXPECT_EQ(s.integrator.max_depth, 16);
+  EXPECT_EQ(s.integrator.max_depth, -1);
 }
 
 TEST(SceneParser, IntegratorTypeFromParameter) {

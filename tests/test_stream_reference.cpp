@@ -170,17 +170,17 @@ std::string branch_difference(const StreamView& a, const StreamView& b) {
     why << "surface records " << a.surface_count << " vs " << b.surface_count << "; ";
   for (size_t i = 0; i < std::min(a.volume_count, b.volume_count); ++i) {
     const SpmVolumeRecord &x = a.volume[i], &y = b.volume[i];
-    if (x.stream != y.stream || x.event != y.event || x.medium != y.medium) {
-      why << "volume record " << i << ": event " << x.event << " medium " << x.medium << " vs event " << y.event
+    if (x.stream != y.stream || x.depth != y.depth || x.medium != y.medium) {
+      why << "volume record " << i << ": depth " << x.depth << " medium " << x.medium << " vs depth " << y.depth
           << " medium " << y.medium << "; ";
       break;
     }
   }
   for (size_t i = 0; i < std::min(a.surface_count, b.surface_count); ++i) {
     const SpmSurfaceRecord &x = a.surface[i], &y = b.surface[i];
-    if (x.stream != y.stream || x.event_photon != y.event_photon || x.flags != y.flags) {
-      why << "surface record " << i << ": event " << (x.event_photon >> 16) << " photon " << (x.event_photon & 0xffff)
-          << " flags " << x.flags << " vs event " << (y.event_photon >> 16) << " photon " << (y.event_photon & 0xffff)
+    if (x.stream != y.stream || x.depth_photon != y.depth_photon || x.flags != y.flags) {
+      why << "surface record " << i << ": depth " << (x.depth_photon >> 16) << " photon " << (x.depth_photon & 0xffff)
+          << " flags " << x.flags << " vs depth " << (y.depth_photon >> 16) << " photon " << (y.depth_photon & 0xffff)
           << " flags " << y.flags << "; ";
       break;
     }
@@ -204,15 +204,15 @@ std::vector<Quantity> quantities(const StreamView& s) {
   std::vector<Quantity> q;
   for (size_t i = 0; i < s.volume_count; ++i) {
     const SpmVolumeRecord& r = s.volume[i];
-    const std::string at = "volume record of event " + std::to_string(r.event) + ": ";
+    const std::string at = "volume record of depth " + std::to_string(r.depth) + ": ";
     q.push_back({Kind::Position, r.position, at + "position"});
     q.push_back({Kind::Direction, r.direction, at + "direction"});
     q.push_back({Kind::Flux, r.flux, at + "flux"});
   }
   for (size_t i = 0; i < s.surface_count; ++i) {
     const SpmSurfaceRecord& r = s.surface[i];
-    const std::string at = "surface record of event " + std::to_string(r.event_photon >> 16) + " photon " +
-                           std::to_string(r.event_photon & 0xffff) + ": ";
+    const std::string at = "surface record of depth " + std::to_string(r.depth_photon >> 16) + " photon " +
+                           std::to_string(r.depth_photon & 0xffff) + ": ";
     q.push_back({Kind::Position, r.position, at + "position"});
     q.push_back({Kind::Direction, r.direction, at + "direction"});
     q.push_back({Kind::Direction, r.normal, at + "normal"});
@@ -295,10 +295,10 @@ DeviceRun run_device(const spm::SceneTables& tables, const spm::StreamSettings& 
   EXPECT_EQ(again.volume.size(), run.maps.volume.size());
   EXPECT_EQ(again.surface.size(), run.maps.surface.size());
   std::sort(again.volume.begin(), again.volume.end(), [](const SpmVolumeRecord& a, const SpmVolumeRecord& b) {
-    return std::tie(a.stream, a.event) < std::tie(b.stream, b.event);
+    return std::tie(a.stream, a.depth) < std::tie(b.stream, b.depth);
   });
   std::sort(again.surface.begin(), again.surface.end(), [](const SpmSurfaceRecord& a, const SpmSurfaceRecord& b) {
-    return std::tie(a.stream, a.event_photon) < std::tie(b.stream, b.event_photon);
+    return std::tie(a.stream, a.depth_photon) < std::tie(b.stream, b.depth_photon);
   });
   if (again.volume.size() == run.maps.volume.size()) {
     EXPECT_EQ(0,

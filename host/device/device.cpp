@@ -173,6 +173,7 @@ Device::Device(const DeviceInfo& info, std::string kernel_dir) : info_(info), ke
     }
     fill_ = static_cast<int>(v);
   }
+  set_memory_budget(0);
   context_ = cl::Context(info_.device);
   queue_ = cl::CommandQueue(context_, info_.device, CL_QUEUE_PROFILING_ENABLE);
 }
@@ -229,14 +230,41 @@ cl::Kernel Device::kernel(const std::string& program, const std::string& name) {
   return cl::Kernel(it->second, name.c_str());
 }
 
-cl::Buffer Device::buffer(size_t bytes, const std::string& what, cl_mem_flags flags) {
+namespace {
+
+// A DeviceBuffer's share of its device's count.
+class Lease {
+ public:
+  Lease(std::shared_ptr<std::atomic<size_t>> live, size_t bytes) : live_(std::move(live)), bytes_(bytes) {
+    live_->fetch_add(bytes_);
+  }
+  Lease(const Lease&) = delete;
+  Lease& operator=(const Lease&) = delete;
+  ~Lease() { live_->fetch_sub(bytes_); }
+
+ private:
+  std::shared_ptr<std::atomic<size_t>> live_;
+  size_t bytes_;
+};
+
+}  // namespace
+
+void Device::set_memory_budget(size_t bytes) { budget_ = bytes ? bytes : size_t(info_.global_memory); }
+
+DeviceBuffer Device::buffer(size_t bytes, const std::string& what, cl_mem_flags flags) {
   if (bytes > info_.max_alloc) {
     throw RuntimeError(what + " needs " + std::to_string(bytes) + " bytes, more than " + info_.name +
                        " allocates at once (CL_DEVICE_MAX_MEM_ALLOC_SIZE = " + std::to_string(info_.max_alloc) + ")");
   }
+  if (bytes > memory_free()) {
+    throw RuntimeError(what + " (" + std::to_string(bytes) + " bytes) does not fit the device memory budget of " +
+                       std::to_string(budget_) + " bytes (--device-memory) on " + info_.name + ", " +
+                       std::to_string(memory_in_use()) + " bytes of it in use");
+  }
   cl::Buffer b(context_, flags, bytes);
+  std::shared_ptr<void> lease = std::make_shared<Lease>(live_, bytes);
   if (fill_ >= 0) queue_.enqueueFillBuffer(b, static_cast<cl_uchar>(fill_), 0, bytes);
-  return b;
+  return DeviceBuffer(std::move(b), std::move(lease));
 }
 
 size_t Device::work_group_size(const cl::Kernel& kernel) const {

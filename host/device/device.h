@@ -5,8 +5,10 @@
 
 #include <CL/opencl.hpp>
 
+#include <atomic>
 #include <chrono>
 #include <map>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -49,6 +51,18 @@ struct Launch {
   std::chrono::steady_clock::time_point enqueued;  // host clock, to place device times on the host's
 };
 
+// A device buffer that holds its size against its device's memory budget
+// while any copy of it lives (Device::buffer): the count falls when the last
+// copy goes, whenever the driver frees the memory itself.
+class DeviceBuffer : public cl::Buffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(cl::Buffer buffer, std::shared_ptr<void> lease) : cl::Buffer(std::move(buffer)), lease_(std::move(lease)) {}
+
+ private:
+  std::shared_ptr<void> lease_;
+};
+
 class Device {
  public:
   Device(const DeviceInfo& info, std::string kernel_dir);
@@ -69,14 +83,26 @@ class Device {
   cl::Event launch(const std::string& label, cl::Kernel& kernel, size_t items);
 
   // A device buffer of `bytes`, checked against the device's largest
-  // allocation first: RuntimeError naming `what` rather than a late failure.
-  cl::Buffer buffer(size_t bytes, const std::string& what, cl_mem_flags flags = CL_MEM_READ_WRITE);
+  // allocation and against the memory budget, summed over every buffer of
+  // this device still held (DeviceBuffer): RuntimeError naming `what`
+  // rather than a late allocation failure.
+  DeviceBuffer buffer(size_t bytes, const std::string& what, cl_mem_flags flags = CL_MEM_READ_WRITE);
+
+  // The bytes all live buffers together may hold (--device-memory); 0: the
+  // device's global memory.
+  void set_memory_budget(size_t bytes);
+  size_t memory_budget() const { return budget_; }
+  size_t memory_in_use() const { return live_->load(); }
+  size_t memory_free() const {
+    const size_t used = memory_in_use();
+    return used < budget_ ? budget_ - used : 0;
+  }
 
   template <class T>
-  cl::Buffer upload(const std::vector<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
+  DeviceBuffer upload(const std::vector<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
     // A zero-sized buffer is invalid in OpenCL; empty tables get one element.
     const size_t bytes = sizeof(T) * (data.empty() ? 1 : data.size());
-    cl::Buffer b = buffer(bytes, "an upload", flags);
+    DeviceBuffer b = buffer(bytes, "an upload", flags);
     if (!data.empty()) {
       cl::Event e;
       queue_.enqueueWriteBuffer(b, CL_TRUE, 0, sizeof(T) * data.size(), data.data(), nullptr, &e);
@@ -121,6 +147,10 @@ class Device {
   size_t preferred_group_ = 64;  // work-items per group, capped by each kernel's limit
   int fill_ = -1;                // SPM_FILL_BUFFERS: the byte new buffers are filled with, or -1
   double build_seconds_ = 0.0;
+  size_t budget_ = 0;
+  // Bytes of this device's live buffers; a DeviceBuffer's lease, which may
+  // outlive the Device and go on another thread, subtracts its size.
+  std::shared_ptr<std::atomic<size_t>> live_ = std::make_shared<std::atomic<size_t>>(0);
 };
 
 // An argument group (such as GpuScene) binds several consecutive arguments

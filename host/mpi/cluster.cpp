@@ -59,7 +59,7 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
 // A rank's stats as rank 0 receives them (kTagDone), field by field.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(DeviceStats, name, passes, busy_seconds)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(RenderStats, passes, interrupted, seconds, bvh_seconds, build_seconds,
-                                   propagate_seconds, grid_seconds, gather_seconds, camera_samples, sphere_tests,
+                                   pilot_seconds, propagate_seconds, grid_seconds, gather_seconds, camera_samples, sphere_tests,
                                    devices)
 
 namespace {
@@ -98,7 +98,7 @@ void wait_gently(MPI_Request& request) {
 // What every rank must agree on for its passes to belong to one image.
 json settings_json(const RenderSettings& s) {
   return {{"width", s.width}, {"height", s.height}, {"spp", s.spp},
-          {"passes", s.passes}, {"seed", s.seed}, {"max_depth", s.max_depth}};
+          {"passes", s.passes}, {"seed", s.seed}};
 }
 
 // A rank's entry of rank_profiles: a whole profile (the keys main.cpp adds
@@ -357,6 +357,7 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
     total.seconds = std::max(total.seconds, st.seconds);
     total.bvh_seconds = std::max(total.bvh_seconds, st.bvh_seconds);
     total.build_seconds += st.build_seconds;
+    total.pilot_seconds = std::max(total.pilot_seconds, st.pilot_seconds);
     total.propagate_seconds += st.propagate_seconds;
     total.grid_seconds += st.grid_seconds;
     total.gather_seconds += st.gather_seconds;

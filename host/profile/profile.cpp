@@ -65,7 +65,8 @@ void Profiler::add_pass(int device, int pass, const PassCounters& c) {
                      {"device", device},
                      {"live_per_iteration", c.live},
                      {"volume_records", c.volume_records},
-                     {"surface_records", c.surface_records}});
+                     {"surface_records", c.surface_records},
+                     {"map_parts", c.map_parts}});
 }
 
 std::map<std::string, KernelTimes> Profiler::kernels() const {
@@ -103,6 +104,17 @@ nlohmann::json Profiler::json() const {
         {"escape", c[SPM_COUNT_EV_ESCAPE]},
         {"black", c[SPM_COUNT_EV_BLACK]},
         {"capped", c[SPM_COUNT_CAPPED]}}},
+      {"streams",
+       {{"emitted", c[SPM_COUNT_STREAMS]},
+        {"events_per_stream",
+         c[SPM_COUNT_STREAMS] ? double(c[SPM_COUNT_EV_MEDIUM] + c[SPM_COUNT_EV_DIFFUSE] + c[SPM_COUNT_EV_SPECULAR] +
+                                       c[SPM_COUNT_EV_NULL] + c[SPM_COUNT_EV_ESCAPE] + c[SPM_COUNT_EV_BLACK]) /
+                                    c[SPM_COUNT_STREAMS]
+                              : 0.0},
+        {"ended_by_roulette", c[SPM_COUNT_END_ROULETTE]},
+        {"ended_by_max_depth", c[SPM_COUNT_END_DEPTH]},
+        {"ended_by_max_bounces", c[SPM_COUNT_END_BOUNCES]},
+        {"ended_by_cap", c[SPM_COUNT_CAPPED]}}},
       {"records", {{"volume", volume_records_}, {"surface", surface_records_}}},
       {"gather",
        {{"camera_samples", camera_samples_},

@@ -36,6 +36,7 @@ struct PassCounters {
   uint64_t surface_records = 0;
   uint64_t camera_samples = 0;
   uint64_t sphere_tests = 0;
+  uint64_t map_parts = 1;  // parts the maps were gathered in to fit the device memory
 };
 
 class Profiler {

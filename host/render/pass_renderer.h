@@ -35,7 +35,8 @@ class PassRenderer {
   StreamTracer tracer_;
   cl::Kernel gather_;
   size_t tile_ = 0;  // pixels per gather launch: the film of a tile fits one allocation
-  cl::Buffer film_, tests_, errors_;
+  size_t maps_budget_ = 0;  // device bytes the maps' grids of a pass (or of each part) may take
+  DeviceBuffer film_, tests_, errors_;
   cl_uint kernel_type_, estimator_, direct_;
 };
 

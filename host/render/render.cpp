@@ -6,6 +6,7 @@
 #include <mutex>
 #include <thread>
 
+#include "render/defaults.h"
 #include "render/pass_renderer.h"
 #include "scene/gpu_scene.h"
 #include "util/errors.h"
@@ -16,46 +17,57 @@ namespace spm {
 RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   if (s.width == 0) s.width = scene.camera.width;
   if (s.height == 0) s.height = scene.camera.height;
-  if (s.spp == 0) s.spp = scene.camera.spp;
-  // A render for a time budget (integrator `time`, no pass count) keeps
-  // passes = 0: it renders passes until the budget is spent.
-  if (s.passes == 0 && !(scene.integrator.time > 0.0f)) s.passes = scene.integrator.passes;
-  if (s.max_depth == 0) s.max_depth = scene.integrator.max_depth;
   if (s.width < 1 || s.height < 1 || s.width > 16384 || s.height > 16384) {
     throw InputError("--res", "resolution " + std::to_string(s.width) + "x" + std::to_string(s.height) +
                                   " is outside 1x1 .. 16384x16384");
-  }
-  if (s.spp < 1 || s.spp > 1 << 20) throw InputError("--spp", "samples per pixel must be in 1 .. 1048576");
-  if (s.passes < 0) throw InputError("--passes", "the number of passes must be at least 1");
-  if (s.max_depth < 1 || s.max_depth > kMaxDepthLimit) {
-    throw InputError(scene.integrator.where, "max_depth must be in 1 .. " + std::to_string(kMaxDepthLimit));
   }
   const IntegratorSettings& in = scene.integrator;
   const auto check = [&](bool ok, const std::string& what) {
     if (!ok) throw InputError(in.where.empty() ? scene.path : in.where, what);
   };
-  check(in.streams >= 1, "streams must be at least 1 (--streams)");
-  check(in.associated >= 1 && in.associated <= 65535, "associated must be in 1 .. 65535 (--associated)");
-  check(in.width > 0.0f && std::isfinite(in.width), "the stream width must be positive (--width)");
-  check(in.radius > 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
-  check(in.max_bounces >= 1, "max_bounces must be at least 1 (--bounces)");
+  check(in.streams >= 0, "streams must be at least 1 (--streams)");
+  check(in.associated >= 0 && in.associated <= 65535, "associated must be in 1 .. 65535 (--associated)");
+  check(in.width >= 0.0f && std::isfinite(in.width), "the stream width must be positive (--width)");
+  check(in.radius >= 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
+  check(in.max_bounces >= -1 && in.max_bounces != 0, "max_bounces must be at least 1, or -1 for unlimited (--bounces)");
+  check(in.max_depth >= -1, "max_depth must be at least -1 (-1: unlimited)");
+  check(in.rr_depth >= 1, "rr_depth must be at least 1");
   check(in.march_step >= 0.0f && std::isfinite(in.march_step), "march_step must not be negative (--march-step)");
   check(in.alpha > 0.0f && in.alpha < 1.0f, "alpha must be in (0, 1) (--alpha)");
   check(in.time >= 0.0f && std::isfinite(in.time), "the time budget must not be negative (--time)");
+  if (s.spp < 0 || s.spp > 1 << 20) throw InputError("--spp", "samples per pixel must be in 1 .. 1048576");
+  if (s.passes < 0) throw InputError("--passes", "the number of passes must be at least 1");
+  if (s.spp == 0) s.spp = samples_per_pass(scene, s.width, s.height);
+  // A render for a time budget (integrator `time`, no pass count) keeps
+  // passes = 0: it renders passes until the budget is spent. Without a pass
+  // count or a budget, the sampler's sample_count is the render's total
+  // samples per pixel (SCENES.md), spread over passes of at most spp each.
+  if (s.passes == 0 && !(in.time > 0.0f)) {
+    if (in.passes > 0) {
+      s.passes = in.passes;
+    } else {
+      const int total = scene.camera.spp;
+      s.spp = std::min(s.spp, total);
+      s.passes = (total + s.spp - 1) / s.spp;
+      s.spp = (total + s.passes - 1) / s.passes;
+    }
+  }
   return s;
 }
 
 StreamSettings stream_settings(const Scene& scene, const RenderSettings& s, int pass) {
   const IntegratorSettings& in = scene.integrator;
+  const auto limit = [](int v) { return v < 0 ? SPM_NONE : static_cast<uint32_t>(v); };
   StreamSettings out;
-  out.streams = static_cast<uint32_t>(in.streams);
-  out.associated = static_cast<uint32_t>(in.associated);
+  out.streams = static_cast<uint32_t>(derived_streams(in));
+  out.associated = static_cast<uint32_t>(derived_associated(in));
   out.width = in.width;
-  out.max_bounces = static_cast<uint32_t>(in.max_bounces);
+  out.max_bounces = limit(in.max_bounces);
+  out.max_depth = limit(in.max_depth);
+  out.rr_depth = static_cast<uint32_t>(in.rr_depth);
   out.march_step = in.march_step;
   out.seed = s.seed;
   out.pass = static_cast<uint32_t>(pass);
-  out.memory_budget = s.memory_budget;
   return out;
 }
 
@@ -93,14 +105,64 @@ Image OrderedSum::average(int width, int height) const {
   return image;
 }
 
-RenderStats render_passes(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
+namespace {
+
+// A timed render's passes are sized so that one takes at most this share of
+// the budget by first_pass_estimate; after the first pass, a pass that would
+// not fit (judged by the longest so far) is never started.
+constexpr double kPassShareOfBudget = 0.1;
+
+}  // namespace
+
+double first_pass_estimate(const Scene& scene, double pilot_seconds) {
+  return 3.0 * pilot_seconds * (1.0 + derived_associated(scene.integrator) / 8.0);
+}
+
+Scene sized_for_budget(const Scene& scene, RenderSettings& s, double pilot_seconds) {
+  Scene out = scene;
+  const double budget = scene.integrator.time;
+  const double predicted = first_pass_estimate(scene, pilot_seconds);
+  if (!(budget > 0.0) || s.passes > 0 || !(predicted > kPassShareOfBudget * budget)) return out;
+  const double f = kPassShareOfBudget * budget / predicted;
+  IntegratorSettings& in = out.integrator;
+  const int streams = std::max(1, static_cast<int>(derived_streams(in) * f));
+  // Fewer streams spread their records thinner: a derived radius grows as
+  // the surface records' spacing does, with the inverse square root.
+  const float grow = std::sqrt(float(derived_streams(in)) / float(streams));
+  if (in.radius_derived) in.radius *= grow;
+  if (in.width_derived) in.width *= grow;
+  in.streams = streams;
+  s.spp = std::max(1, static_cast<int>(std::lround(s.spp * f)));
+  return out;
+}
+
+RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings, const std::vector<Device*>& devices,
                           PassSlice slice, const PassSink& sink, Profiler* profiler) {
-  const RenderSettings s = resolve_settings(scene, settings);
+  RenderSettings s = resolve_settings(scene_in, settings);
+  const bool timed = s.passes == 0;
+  for (Device* d : devices) d->set_memory_budget(s.memory_budget);
+  // Derived radius and width (defaults.h); a timed render always runs the
+  // pilot, whose propagation time sizes its passes.
+  ScalePilot pilot;
+  Scene scene = scene_in;
+  if (scene.integrator.radius <= 0.0f || timed) {
+    const double start = profiler ? profiler->now() : 0.0;
+    Scene probe = scene_in;
+    probe.integrator.radius = 0.0f;
+    Scene derived = derive_scale(probe, *devices[0], s.seed, &pilot);
+    if (scene_in.integrator.radius <= 0.0f) scene = std::move(derived);
+    // The pilot is a host stage of its own; its launches stay out of the
+    // passes' kernel figures.
+    devices[0]->take_launches();
+    if (profiler) profiler->stage("pilot", start, profiler->now(), 1);
+  }
+  scene = sized_for_budget(scene, s, pilot.seconds);
+  if (s.announce) {
+    s.announce(RenderUsed{derived_streams(scene.integrator), derived_associated(scene.integrator),
+                          scene.integrator.radius, scene.integrator.width, s.spp, s.passes, pilot.seconds});
+  }
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);
-  const bool timed = s.passes == 0;
-  Timer clock;
-  double elapsed = 0.0;  // guarded by `mutex`, like everything the workers share
 
   std::mutex mutex;
   std::atomic<int> next{0};
@@ -108,6 +170,7 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
   std::exception_ptr error;
   RenderStats st;
   st.devices.resize(devices.size());
+  st.pilot_seconds = pilot.seconds;
   const auto stopping = [&] { return failed.load() || (s.stop && s.stop->load()); };
 
   const auto work = [&](size_t d) {
@@ -116,18 +179,20 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
       st.devices[d].name = device.info().name;
       if (profiler) profiler->add_device(int(d), device.info().name);
       PassRenderer renderer(device, scene, tables, s);
-      for (;;) {
+      // The budget counts from here: scene upload and kernel builds are
+      // reported apart (RenderStats::build_seconds).
+      Timer clock;
+      // A pass starts only when its predicted length, the longest pass so
+      // far (at first the pilot's estimate), still fits the budget; device 0
+      // renders one pass in any case.
+      double elapsed = 0.0, longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * in.time);
+      for (int done = 0;; ++done) {
         if (stopping()) break;
+        if (timed && (d > 0 || done > 0) && elapsed + longest > in.time) break;
         // This process's k-th pass is slice.offset + k slice.stride.
         const int k = next++;
         const int pass = slice.offset + k * slice.stride;
-        if (timed) {
-          std::lock_guard<std::mutex> lock(mutex);
-          elapsed += clock.lap();
-          if (k > 0 && elapsed >= in.time) break;
-        } else if (pass >= s.passes) {
-          break;
-        }
+        if (!timed && pass >= s.passes) break;
         Timer busy;
         PassOutput out = renderer.render(pass, profiler, int(d) + 1);
         if (profiler) {
@@ -136,9 +201,13 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
         } else {
           device.take_launches();
         }
+        const double took = busy.lap();
+        elapsed += clock.lap();
+        longest = std::max(longest, took);
         std::lock_guard<std::mutex> lock(mutex);
         st.devices[d].passes += 1;
-        st.devices[d].busy_seconds += busy.lap();
+        st.devices[d].busy_seconds += took;
+        st.seconds = std::max(st.seconds, elapsed);
         st.propagate_seconds += out.propagate_seconds;
         st.grid_seconds += out.grid_seconds;
         st.gather_seconds += out.gather_seconds;
@@ -159,7 +228,6 @@ RenderStats render_passes(const Scene& scene, const RenderSettings& settings, co
   for (auto& t : threads) t.join();
   if (error) std::rethrow_exception(error);
   st.interrupted = s.stop && s.stop->load();
-  st.seconds = elapsed + clock.lap();
   st.bvh_seconds = tables.bvh_seconds;
   for (Device* d : devices) st.build_seconds += d->build_seconds();
   return st;

@@ -17,17 +17,31 @@
 
 namespace spm {
 
+// The settings a render runs with once the scene's gaps are derived
+// (defaults.h) and a timed render's passes are sized.
+struct RenderUsed {
+  int streams = 0, associated = 0;
+  float radius = 0.0f, width = 0.0f;  // of the first pass
+  int spp = 0;                        // per pass
+  int passes = 0;                     // 0: as many as the time budget allows
+  double pilot_seconds = 0.0;         // the scale pilot (0: none ran)
+};
+
 struct RenderSettings {
   int width = 0;  // 0: the scene's film size
   int height = 0;
-  int spp = 0;     // 0: the scene's sampler sample_count
-  int passes = 0;  // 0: the integrator's `passes`, or as many as its `time` allows
+  // Camera samples per pixel in each pass; 0: samples_per_pass (defaults.h).
+  int spp = 0;
+  // 0: the integrator's `passes`, or as many as its `time` allows, or enough
+  // passes of `spp` for the sampler's sample_count (SCENES.md).
+  int passes = 0;
   uint32_t seed = 0;
-  int max_depth = 0;  // 0: the integrator's `max_depth`
   std::string dump_maps;     // PLY prefix for the first pass's photon maps; empty: none
-  size_t memory_budget = 0;  // device bytes for a batch of streams; 0: from the device
+  size_t memory_budget = 0;  // device bytes all of a render's buffers may hold at once; 0: the device's memory
   // When set, no new pass starts; the passes in flight finish (SIGINT).
   const std::atomic<bool>* stop = nullptr;
+  // Called once before the first pass with the settings in use.
+  std::function<void(const RenderUsed&)> announce;
 };
 
 struct DeviceStats {
@@ -42,6 +56,7 @@ struct RenderStats {
   double seconds = 0.0;         // wall clock of the passes
   double bvh_seconds = 0.0;
   double build_seconds = 0.0;   // kernel program builds, all devices
+  double pilot_seconds = 0.0;   // the scale pilot (defaults.h), before the passes
   // Summed over passes (and devices: with several, more than `seconds`).
   double propagate_seconds = 0.0;  // stream propagation incl. map downloads and sorting
   double grid_seconds = 0.0;       // record grid builds and uploads
@@ -55,10 +70,6 @@ struct RenderStats {
 // total 0 when the render runs for a time budget.
 using Progress = std::function<void(int, int)>;
 
-// Largest max_depth a camera path may use: its events must fit the 256 the
-// gather kernel gives each sample (kernels/spm_gather.cl).
-constexpr int kMaxDepthLimit = 60;
-
 // Validates settings and the scene's integrator (command-line overrides
 // already applied to it) and fills the zeros from the scene; throws
 // InputError for values out of range.
@@ -69,6 +80,17 @@ float pass_radius(float r0, float alpha, int pass);
 
 // The stream propagation settings of pass `pass`.
 StreamSettings stream_settings(const Scene& scene, const RenderSettings& settings, int pass);
+
+// A coarse estimate of a pass's length from the scale pilot's (one photon
+// per stream): propagation grows with the associated photons, and the
+// gather takes about twice the propagation here.
+double first_pass_estimate(const Scene& scene, double pilot_seconds);
+
+// A timed render (settings.passes 0) whose pass would take more than a tenth
+// of the budget by first_pass_estimate: the scene with fewer streams per
+// pass (a derived radius grown to match) and `settings` with fewer samples
+// per pass, in proportion. Any other render: the scene unchanged.
+Scene sized_for_budget(const Scene& scene, RenderSettings& settings, double pilot_seconds);
 
 // Sums pass images in pass order, whatever order they arrive in, in double
 // precision: the image then does not depend on which device or process

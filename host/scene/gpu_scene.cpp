@@ -201,7 +201,12 @@ GpuScene::GpuScene(Device& device, const SceneTables& t)
       light_cdf_(device.upload(t.light_cdf)),
       camera_(device.upload(std::vector<SpmCamera>{t.camera})),
       num_prims_(static_cast<cl_uint>(t.prims.size())),
-      num_lights_(static_cast<cl_uint>(t.lights.size())) {}
+      num_lights_(static_cast<cl_uint>(t.lights.size())) {
+  // Device::upload gives an empty table one element.
+  const auto size = [](const auto& v) { return sizeof(v[0]) * std::max<size_t>(1, v.size()); };
+  bytes_ = size(t.nodes) + size(t.prims) + size(t.normals) + size(t.shapes) + size(t.materials) + size(t.media) +
+           size(t.lights) + size(t.light_prims) + size(t.light_cdf) + sizeof(SpmCamera);
+}
 
 cl_uint GpuScene::bind(cl::Kernel& k, cl_uint i) const {
   for (const cl::Buffer* b : {&nodes_, &prims_, &normals_, &shapes_, &materials_, &media_, &lights_, &light_prims_,

@@ -38,8 +38,11 @@ class GpuScene {
 
   const cl::Buffer& camera() const { return camera_; }
 
+  size_t bytes() const { return bytes_; }  // device memory of the tables
+
  private:
-  cl::Buffer nodes_, prims_, normals_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, camera_;
+  size_t bytes_ = 0;
+  DeviceBuffer nodes_, prims_, normals_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, camera_;
   cl_uint num_prims_ = 0, num_lights_ = 0;
 };
 

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "scene/light_power.h"
+#include "scene/media_regions.h"
 #include "scene/obj.h"
 #include "scene/xml_context.h"
 #include "scene/xml_props.h"
@@ -46,6 +47,7 @@ class Loader {
     ctx_.check_overrides(root);
     if (scene_.lights.empty()) ctx_.fail(root, "scene has no light (no emitter)");
     for (const Light& light : scene_.lights) check_power(light);
+    resolve_light_media(scene_);
     return std::move(scene_);
   }
 
@@ -332,7 +334,10 @@ class Loader {
     int index = static_cast<int>(scene_.shapes.size());
     if (light) {
       light->shape = index;
+      // A medium-transition shape says what its outside is, vacuum
+      // included; any other shape's light sits in its region's medium.
       light->medium = shape.exterior;
+      light->medium_given = shape.interior >= 0 || shape.exterior >= 0;
       shape.light = static_cast<int>(scene_.lights.size());
       scene_.lights.push_back(*light);
     }
@@ -600,6 +605,7 @@ class Loader {
       std::string tag = child.name();
       if (tag != "medium" && tag != "ref") ctx_.fail(child, "<" + tag + "> is not allowed in " + p.what());
       set_medium(light.medium, child, p.what());
+      light.medium_given = true;
     }
     scene_.lights.push_back(light);
     register_id(node, -1);
@@ -680,9 +686,10 @@ class Loader {
     };
     int_at_least("streams", s.streams, 1);
     int_at_least("associated", s.associated, 1);
-    int_at_least("max_bounces", s.max_bounces, 0);
+    int_at_least("max_bounces", s.max_bounces, -1);
     int_at_least("passes", s.passes, 1);
-    int_at_least("max_depth", s.max_depth, 0);
+    int_at_least("max_depth", s.max_depth, -1);
+    int_at_least("rr_depth", s.rr_depth, 1);
     auto checked_float = [&](const char* name, float& field, bool strictly_positive) {
       if (std::optional<float> v = p.get_float(name)) {
         if (strictly_positive ? !(*v > 0.0f) : !(*v >= 0.0f))

@@ -39,7 +39,11 @@ struct Light {
   float cutoff_angle = 20.0f;  // spot, degrees
   float beam_width = 15.0f;    // spot, degrees (Mitsuba: 3/4 of cutoff)
   int shape = -1;              // area: index of the shape it is attached to
-  int medium = -1;             // medium the emitter sits in (area: shape exterior)
+  int medium = -1;             // medium the emitter sits in, -1: none
+  // Whether the file says which medium (a point or spot light's nested
+  // medium; an area light's shape naming an interior or exterior); if not,
+  // the loader gives it the medium of its region (METHOD.md 9).
+  bool medium_given = false;
   std::string where;
 };
 
@@ -72,7 +76,7 @@ struct Camera {
   int height = 576;
   Filter filter = Filter::Gaussian;
   float filter_stddev = 0.5f;
-  int spp = 4;  // sampler sample_count: samples per pixel per pass
+  int spp = 4;  // sampler sample_count: the render's samples per pixel (Mitsuba's default 4)
   int medium = -1;
   std::string where;
 };
@@ -81,15 +85,20 @@ struct Camera {
 // defaults; command-line flags override both.
 struct IntegratorSettings {
   bool present = false;  // false when the file has no spm integrator
-  int streams = 10000;
-  int associated = 100;
-  float radius = 2.5f;
-  float width = 2.5f;
-  int max_bounces = 4;
+  // 0: derived from the scene (host/render/defaults.h).
+  int streams = 0;
+  int associated = 0;
+  float radius = 0.0f;
+  float width = 0.0f;
+  bool radius_derived = false, width_derived = false;  // set by derive_scale
+  int max_bounces = -1;  // diffuse bounces before a stream ends; -1: unlimited (the paper: 4)
   float march_step = 0.0f;
-  int passes = 1;
+  int passes = 0;  // 0: as many as the sampler's sample_count needs (SCENES.md)
   float time = 0.0f;  // seconds; 0: not time-limited
-  int max_depth = 16;  // specular chain cap of camera rays
+  // Mitsuba's volpath counting (METHOD.md 10): the longest path in segments,
+  // -1 unlimited; Russian roulette from path vertex rr_depth on.
+  int max_depth = -1;
+  int rr_depth = 5;
   std::string estimator = "bre";    // bre | paper (METHOD.md 5)
   std::string kernel = "uniform";   // uniform | epanechnikov
   std::string direct = "nee";       // nee | photons

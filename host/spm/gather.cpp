@@ -1,5 +1,6 @@
 #include "spm/gather.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -47,7 +48,7 @@ RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radi
 
 std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
   return per_item(grid, records, [](const SpmVolumeRecord& r) {
-    return cl_float4{{r.position[0], r.position[1], r.position[2], 0.0f}};
+    return cl_float4{{r.position[0], r.position[1], r.position[2], float(r.depth)}};
   });
 }
 
@@ -59,7 +60,9 @@ std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std:
 
 std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
   return per_item(grid, records,
-                  [](const SpmSurfaceRecord& r) { return cl_float4{{r.flux[0], r.flux[1], r.flux[2], 0.0f}}; });
+                  [](const SpmSurfaceRecord& r) {
+                    return cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
+                  });
 }
 
 std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct) {
@@ -71,22 +74,40 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
   return out;
 }
 
-MapGrids::MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct) {
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct);
-  const RecordGrid volume = volume_grid(maps.volume, radius);
-  const RecordGrid surface_points = surface_grid(surface, radius);
-  const auto volume_pos = volume_item_positions(volume, maps.volume);
-  const auto surface_pos = surface_item_positions(surface_points, surface);
-  const auto surface_flux = surface_item_flux(surface_points, surface);
-  volume_info_ = device.upload(std::vector<SpmGridInfo>{volume.info});
-  volume_start_ = device.upload(volume.cell_start);
-  volume_pos_ = device.upload(volume_pos);
-  volume_items_ = device.upload(volume.items);
-  volume_ = device.upload(maps.volume);
-  surface_info_ = device.upload(std::vector<SpmGridInfo>{surface_points.info});
-  surface_start_ = device.upload(surface_points.cell_start);
-  surface_pos_ = device.upload(surface_pos);
-  surface_flux_ = device.upload(surface_flux);
+template <class T>
+size_t vector_bytes(const std::vector<T>& v) {
+  return sizeof(T) * std::max<size_t>(1, v.size());  // Device::upload gives an empty table one element
+}
+
+size_t MapGridData::bytes() const {
+  return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
+         vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
+         vector_bytes(surface_pos) + vector_bytes(surface_flux);
+}
+
+MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface_all,
+                          float radius, bool skip_direct) {
+  MapGridData d;
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct);
+  d.volume = volume_grid(volume, radius);
+  d.surface = surface_grid(surface, radius);
+  d.volume_pos = volume_item_positions(d.volume, volume);
+  d.surface_pos = surface_item_positions(d.surface, surface);
+  d.surface_flux = surface_item_flux(d.surface, surface);
+  d.volume_records = std::move(volume);
+  return d;
+}
+
+MapGrids::MapGrids(Device& device, const MapGridData& d) {
+  volume_info_ = device.upload(std::vector<SpmGridInfo>{d.volume.info});
+  volume_start_ = device.upload(d.volume.cell_start);
+  volume_pos_ = device.upload(d.volume_pos);
+  volume_items_ = device.upload(d.volume.items);
+  volume_ = device.upload(d.volume_records);
+  surface_info_ = device.upload(std::vector<SpmGridInfo>{d.surface.info});
+  surface_start_ = device.upload(d.surface.cell_start);
+  surface_pos_ = device.upload(d.surface_pos);
+  surface_flux_ = device.upload(d.surface_flux);
 }
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {

@@ -21,12 +21,13 @@ inline constexpr float kSurfaceCell = 1.0f;
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
 RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius);
 
-// Grid items of the volume map: the listed record's position (w unused).
+// Grid items of the volume map: the listed record's position, its depth in w
+// (kernels/lib/estimate.h leaves out records deeper than max_depth allows).
 std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records);
 
 // Grid items of the surface map: position with the packed normal in w
-// (kernels/lib/estimate.h, unpack_normal), and the record's flux, so that the
-// surface estimate never reads the records themselves.
+// (kernels/lib/estimate.h, unpack_normal), and the record's flux with its
+// depth in w, so that the surface estimate never reads the records themselves.
 std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
 std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
 
@@ -34,15 +35,29 @@ std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vect
 // (`skip_direct`), not those of streams that had no event before (METHOD.md 5).
 std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct);
 
+// The gather's grids of some map records, built on the host: the volume
+// map's sphere grid and the surface map's point grid with their per-item
+// arrays, as MapGrids uploads them.
+struct MapGridData {
+  RecordGrid volume, surface;
+  std::vector<cl_float4> volume_pos, surface_pos, surface_flux;
+  std::vector<SpmVolumeRecord> volume_records;
+  size_t bytes() const;  // device memory of the upload
+};
+
+// `surface` as the gather uses it (used_surface_records with skip_direct).
+MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface,
+                          float radius, bool skip_direct);
+
 class MapGrids {
  public:
-  MapGrids(Device& device, const PhotonMaps& maps, float radius, bool skip_direct);
+  MapGrids(Device& device, const MapGridData& data);
 
   cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
 
  private:
-  cl::Buffer volume_info_, volume_start_, volume_pos_, volume_items_, volume_;
-  cl::Buffer surface_info_, surface_start_, surface_pos_, surface_flux_;
+  DeviceBuffer volume_info_, volume_start_, volume_pos_, volume_items_, volume_;
+  DeviceBuffer surface_info_, surface_start_, surface_pos_, surface_flux_;
 };
 
 }  // namespace spm

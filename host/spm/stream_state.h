@@ -8,7 +8,7 @@
 namespace spm {
 
 struct StreamState {
-#define SPM_STREAM_BUFFER(type, name) cl::Buffer name;
+#define SPM_STREAM_BUFFER(type, name) DeviceBuffer name;
   SPM_STREAM_STATE(SPM_STREAM_BUFFER)
 #undef SPM_STREAM_BUFFER
 

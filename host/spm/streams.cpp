@@ -18,8 +18,12 @@ size_t bytes_per_stream(uint32_t associated) {
          associated * sizeof(SpmSurfaceRecord) + 8 * sizeof(SpmVolumeRecord);
 }
 
-uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
-  const size_t budget = s.memory_budget ? s.memory_budget : std::min<size_t>(info.global_memory / 2, size_t(1) << 30);
+// A batch takes `memory_budget` bytes when set, else half the device memory
+// still free, at most 1 GiB.
+uint32_t batch_size(const Device& device, const StreamSettings& s) {
+  const DeviceInfo& info = device.info();
+  const size_t budget =
+      s.memory_budget ? s.memory_budget : std::min<size_t>(device.memory_free() / 2, size_t(1) << 30);
   size_t n = budget / bytes_per_stream(s.associated);
   // The largest single buffer, the surface records, must fit one allocation.
   n = std::min<size_t>(n, info.max_alloc / (s.associated * sizeof(SpmSurfaceRecord)));
@@ -27,9 +31,10 @@ uint32_t batch_size(const DeviceInfo& info, const StreamSettings& s) {
   n = std::min<size_t>(n, (size_t(1) << 31) / s.associated);
   n = std::min<size_t>(n, s.streams);
   if (n == 0) {
-    throw RuntimeError("one stream of " + std::to_string(s.associated) +
-                       " associated photons does not fit the device memory budget of " + std::to_string(budget) +
-                       " bytes");
+    throw RuntimeError("one stream of " + std::to_string(s.associated) + " associated photons (" +
+                       std::to_string(bytes_per_stream(s.associated)) + " bytes) does not fit the " +
+                       std::to_string(budget) + " bytes left for stream batches of the device memory budget of " +
+                       std::to_string(device.memory_budget()) + " bytes (--device-memory)");
   }
   return static_cast<uint32_t>(n);
 }
@@ -40,7 +45,7 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
     : device_(device), scene_(scene), settings_(settings) {
   if (settings_.streams == 0 || settings_.associated == 0) throw InputError("", "streams and associated must be >= 1");
   if (settings_.associated > 65535) throw InputError("", "associated photons per stream must be at most 65535");
-  capacity_ = batch_size(device.info(), settings_);
+  capacity_ = batch_size(device, settings_);
   volume_capacity_ = 8 * capacity_;
   surface_capacity_ = capacity_ * settings_.associated;
   state_ = StreamState(device, capacity_);
@@ -59,6 +64,10 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   compact_ = device.kernel("spm_compact", "spm_compact");
   counters_.fill(0);
   device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+}
+
+size_t StreamTracer::bytes() const {
+  return size_t(capacity_) * bytes_per_stream(settings_.associated) + sizeof(cl_uint) * SPM_COUNTERS;
 }
 
 void StreamTracer::launch_photons(const char* label, cl::Kernel& kernel) {
@@ -87,7 +96,7 @@ uint32_t StreamTracer::step() {
   set_args(march_, scene_, queue_, n, state_, s.march_step, cl_uint(s.seed), cl_uint(s.pass));
   device_.launch("march", march_, n);
   set_args(interact_, scene_, queue_, n, state_, volume_, volume_capacity_, surface_capacity_, counters_buffer_,
-           cl_uint(s.max_bounces), cl_uint(s.seed), cl_uint(s.pass));
+           cl_uint(s.max_bounces), cl_uint(s.max_depth), cl_uint(s.rr_depth), cl_uint(s.seed), cl_uint(s.pass));
   device_.launch("interact", interact_, n);
   set_args(deposit_, queue_, n, state_, cl_uint(s.associated), s.width, surface_, surface_capacity_, cl_uint(s.seed),
            cl_uint(s.pass));
@@ -155,7 +164,9 @@ PhotonMaps StreamTracer::trace(uint32_t pass, float width) {
   PhotonMaps maps;
   maps.stats.batch_size = capacity_;
   for (uint32_t first = 0; first < settings_.streams; first += capacity_) {
-    emit(first, std::min(capacity_, settings_.streams - first));
+    const uint32_t count = std::min(capacity_, settings_.streams - first);
+    emit(first, count);
+    maps.stats.counters[SPM_COUNT_STREAMS] += count;
     ++maps.stats.batches;
     while (live_ > 0) {
       make_room(maps);
@@ -165,8 +176,8 @@ PhotonMaps StreamTracer::trace(uint32_t pass, float width) {
   }
   // Appends raced on the device; (stream, event[, photon]) is a total order
   // independent of it, so the maps and every sum over them are deterministic.
-  sort_by_key(maps.volume, [](const SpmVolumeRecord& r) { return uint64_t(r.stream) << 32 | r.event; });
-  sort_by_key(maps.surface, [](const SpmSurfaceRecord& r) { return uint64_t(r.stream) << 32 | r.event_photon; });
+  sort_by_key(maps.volume, [](const SpmVolumeRecord& r) { return uint64_t(r.stream) << 32 | r.depth; });
+  sort_by_key(maps.surface, [](const SpmSurfaceRecord& r) { return uint64_t(r.stream) << 32 | r.depth_photon; });
   return maps;
 }
 

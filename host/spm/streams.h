@@ -19,11 +19,13 @@ struct StreamSettings {
   uint32_t streams = 10000;    // N_s in the pass
   uint32_t associated = 100;   // N_a per stream
   float width = 2.5f;          // w: respawn sphere / deposit disk radius
-  uint32_t max_bounces = 4;    // diffuse bounces before a stream ends
+  uint32_t max_bounces = 4;    // diffuse bounces before a stream ends; SPM_NONE: unlimited
+  uint32_t max_depth = SPM_NONE;  // METHOD.md 10: longest path in segments; SPM_NONE: unlimited
+  uint32_t rr_depth = 5;       // Russian roulette from this path vertex on
   float march_step = 0.0f;     // 0: exact free-flight sampling
   uint32_t seed = 0;
   uint32_t pass = 0;
-  size_t memory_budget = 0;    // bytes of device memory for a batch; 0: from the device
+  size_t memory_budget = 0;    // bytes of device memory for a batch; 0: half the device's free memory
 };
 
 struct StreamStats {
@@ -47,6 +49,9 @@ class StreamTracer {
   StreamTracer(Device& device, const GpuScene& scene, const StreamSettings& settings);
 
   uint32_t batch_capacity() const { return capacity_; }
+
+  // Device memory of the batch's buffers.
+  size_t bytes() const;
 
   // All N_s streams of pass `pass` with stream width `width`, batch by batch;
   // the maps come back ordered. The tracer's buffers serve every pass.
@@ -86,7 +91,7 @@ class StreamTracer {
   uint32_t live_ = 0;
   cl_uint volume_capacity_ = 0, surface_capacity_ = 0;
   StreamState state_;
-  cl::Buffer queue_, queue_next_, counters_buffer_, photons_, volume_, surface_;
+  DeviceBuffer queue_, queue_next_, counters_buffer_, photons_, volume_, surface_;
   std::array<cl_uint, SPM_COUNTERS> counters_{};
   std::vector<uint32_t> live_log_;
   cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_, compact_;

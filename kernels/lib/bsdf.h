@@ -57,7 +57,7 @@ inline float specular_bounce(const __global SpmMaterial* m, const SpmSurface* su
 
 /* Origin for a ray leaving surf along d, on the side d points to. */
 inline float3 leave_surface(const SpmSurface* surf, float3 d) {
-  return offset_origin(surf->p, dot(d, surf->ng) > 0.0f ? surf->ng : -surf->ng);
+  return offset_origin(surf->p, dot(d, surf->ng) > 0.0f ? surf->ng : -surf->ng, surf->extent);
 }
 
 #endif

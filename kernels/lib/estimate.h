@@ -32,10 +32,12 @@ inline float kernel_2d(uint kernel_type, float d2, float r2) {
  * crosses is counted once: in the cell holding its closest point on the ray.
  * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
  * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
+ * Records deeper than max_rec_depth (item_pos.w holds the depth) are left
+ * out: their paths would be longer than max_depth (METHOD.md 10).
  * *tests counts the records examined (the profile's sphere tests). */
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
-                            uint kernel_type, uint estimator, uint* tests) {
+                            uint kernel_type, uint estimator, uint max_rec_depth, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (grid->info->records == 0 || !grid_walk_begin(grid->info, o, d, t0, t1, &walk)) return sum;
@@ -46,9 +48,10 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
     const uint c = grid_cell_index(grid->info, walk.cell);
     for (uint k = grid->cell_start[c]; k < grid->cell_start[c + 1]; ++k) {
       ++*tests;
-      const float3 x = grid->item_pos[k].xyz;
+      const float4 item = grid->item_pos[k];
+      const float3 x = item.xyz;
       const float t = dot(x - o, d);
-      if (t < t0 || t > t1) continue;
+      if (t < t0 || t > t1 || item.w > (float)max_rec_depth) continue;
       const float3 closest = o + t * d;
       const float3 off = x - closest;
       const float d2 = dot(off, off);
@@ -83,10 +86,12 @@ inline float3 unpack_normal(uint bits) {
  * the same side, of K(d) phi. The grid is a point grid (each record once, in
  * its cell) holding only the records to use (with next-event estimation, not
  * those of streams without an earlier event); item_flux[k] is the flux of
- * item k's record. The query visits every cell the box [x - r, x + r]
- * touches; the cells of one row are consecutive, and so are their items. */
+ * item k's record, and item_flux[k].w its depth: deeper records than
+ * max_rec_depth are left out (METHOD.md 10). The query visits every cell the
+ * box [x - r, x + r] touches; the cells of one row are consecutive, and so
+ * are their items. */
 inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_flux, float3 x, float3 n, float r,
-                               uint kernel_type) {
+                               uint kernel_type, uint max_rec_depth) {
   float3 sum = (float3)(0.0f);
   if (grid->info->records == 0) return sum;
   const float r2 = r * r;
@@ -106,7 +111,9 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
         const float d3 = dot(off, off);
         if (d3 >= r2 || fabs(h) > SPM_DISK_THICKNESS * r) continue;
         if (dot(unpack_normal(as_uint(p.w)), n) <= 0.0f) continue;
-        sum += kernel_2d(kernel_type, d3 - h * h, r2) * item_flux[k].xyz;
+        const float4 flux = item_flux[k];
+        if (flux.w > (float)max_rec_depth) continue;
+        sum += kernel_2d(kernel_type, d3 - h * h, r2) * flux.xyz;
       }
     }
   }

@@ -127,14 +127,16 @@ typedef struct SpmSurface {
   float3 ng;
   float3 ns;
   uint shape;
+  float extent; /* the scene's largest coordinate (offset_origin) */
 } SpmSurface;
 
 inline SpmSurface surface_at(const __global SpmPrim* prims, const __global SpmPrimNormals* normals,
-                             const __global SpmShape* shapes, float3 o, float3 d, SpmHit h) {
+                             const __global SpmShape* shapes, float extent, float3 o, float3 d, SpmHit h) {
   const __global SpmPrim* p = &prims[h.prim];
   SpmSurface s;
   s.p = o + h.t * d;
   s.shape = p->shape;
+  s.extent = extent;
   if (p->kind == SPM_PRIM_SPHERE) {
     s.ng = normalize(s.p - load3(p->p0));
     s.ns = s.ng;
@@ -156,9 +158,12 @@ inline SpmSurface surface_at(const __global SpmPrim* prims, const __global SpmPr
   return s;
 }
 
-/* Mitsuba's rule for the medium a direction leaves into: exterior on the side
- * the normal points to, interior on the other. */
-inline int target_medium(const __global SpmShape* shape, float3 ng, float3 d) {
+/* Mitsuba's rule for the medium a direction leaves into: a shape that names
+ * a medium on either side is a medium transition, exterior on the side the
+ * normal points to and interior on the other; any other shape keeps the
+ * `current` medium (METHOD.md 9). */
+inline int target_medium(const __global SpmShape* shape, float3 ng, float3 d, int current) {
+  if (shape->interior < 0 && shape->exterior < 0) return current;
   return dot(ng, d) > 0.0f ? shape->exterior : shape->interior;
 }
 

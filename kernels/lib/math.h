@@ -27,10 +27,12 @@ inline float3 to_world(float3 v, float3 n) {
 }
 
 /* Offset for a ray leaving a surface at p towards the side `side_normal`
- * points to: relative to the coordinates' magnitude, so scenes of any scale
- * (the Cornell box is 100 units wide) avoid self-intersection. */
-inline float3 offset_origin(float3 p, float3 side_normal) {
-  const float scale = 1.0f + max_comp(fabs(p));
+ * points to: relative to the coordinates' magnitude, and to a hundredth of
+ * the scene's extent (its largest coordinate) near the origin, so that a
+ * scene scaled by any factor avoids self-intersection alike and traces the
+ * same paths. */
+inline float3 offset_origin(float3 p, float3 side_normal, float extent) {
+  const float scale = 0.01f * extent + max_comp(fabs(p));
   return p + side_normal * (2e-5f * scale);
 }
 

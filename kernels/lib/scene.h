@@ -29,6 +29,7 @@ typedef struct SpmScene {
   const __global float* light_cdf; /* inclusive CDF over lights by power */
   uint num_prims;
   uint num_lights;
+  float extent; /* largest absolute coordinate of the BVH's bounds (offset_origin) */
 } SpmScene;
 
 inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmPrim* prims,
@@ -48,6 +49,11 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
   s.light_cdf = light_cdf;
   s.num_prims = num_prims;
   s.num_lights = num_lights;
+  s.extent = 0.0f;
+  if (num_prims > 0) {
+    const float3 lo = fabs(vload3(0, nodes[0].lo)), hi = fabs(vload3(0, nodes[0].hi));
+    s.extent = max_comp(fmax(lo, hi));
+  }
   return s;
 }
 
@@ -56,7 +62,7 @@ inline bool scene_trace(const SpmScene* s, float3 o, float3 d, float tmax, SpmHi
 }
 
 inline SpmSurface scene_surface(const SpmScene* s, float3 o, float3 d, SpmHit h) {
-  return surface_at(s->prims, s->normals, s->shapes, o, d, h);
+  return surface_at(s->prims, s->normals, s->shapes, s->extent, o, d, h);
 }
 
 /* Transmittance of a homogeneous medium over `dist` (paper eq. 2). */

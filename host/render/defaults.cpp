@@ -1,0 +1,111 @@
+#include "render/defaults.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "render/render.h"
+#include "scene/gpu_scene.h"
+#include "spm/streams.h"
+#include "util/timer.h"
+
+namespace spm {
+
+int derived_streams(const IntegratorSettings& in) { return in.streams > 0 ? in.streams : kDefaultStreams; }
+
+int derived_associated(const IntegratorSettings& in) {
+  return in.associated > 0 ? in.associated : kDefaultAssociated;
+}
+
+int samples_per_pass(const Scene& scene, int width, int height) {
+  const double photons = double(derived_streams(scene.integrator)) * derived_associated(scene.integrator);
+  const double spp = photons / (4.0 * double(width) * double(height));
+  return static_cast<int>(std::clamp(std::lround(spp), 1L, 64L));
+}
+
+float neighbour_radius(const std::vector<glm::vec3>& points, int k, int queries) {
+  if (points.size() <= size_t(k)) return 0.0f;
+  const size_t n = points.size(), q = std::min<size_t>(n, size_t(queries));
+  std::vector<float> radii, d2(n);
+  for (size_t i = 0; i < q; ++i) {
+    const glm::vec3 x = points[i * n / q];
+    for (size_t j = 0; j < n; ++j) {
+      const glm::vec3 off = points[j] - x;
+      d2[j] = glm::dot(off, off);
+    }
+    // d2 holds the query itself at distance 0: the k-th other point is at index k.
+    std::nth_element(d2.begin(), d2.begin() + k, d2.end());
+    radii.push_back(std::sqrt(d2[k]));
+  }
+  std::nth_element(radii.begin(), radii.begin() + radii.size() / 2, radii.end());
+  return radii[radii.size() / 2];
+}
+
+float pilot_radius(const ScalePilot& pilot) {
+  const float v = neighbour_radius(pilot.volume, kScaleNeighbours);
+  const float s = neighbour_radius(pilot.surface, kScaleNeighbours);
+  if (v > 0.0f && s > 0.0f) return std::min(v, s);
+  return std::max(v, s);
+}
+
+namespace {
+
+float scene_diagonal(const Scene& scene) {
+  glm::vec3 lo(INFINITY), hi(-INFINITY);
+  for (const Shape& sh : scene.shapes) {
+    for (const glm::vec3& p : sh.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    if (sh.kind == Shape::Kind::Sphere) {
+      lo = glm::min(lo, sh.center - sh.radius);
+      hi = glm::max(hi, sh.center + sh.radius);
+    }
+  }
+  for (const Light& l : scene.lights) {
+    if (l.type == Light::Type::Area) continue;
+    lo = glm::min(lo, l.position);
+    hi = glm::max(hi, l.position);
+  }
+  const float d = glm::length(hi - lo);
+  return std::isfinite(d) && d > 0.0f ? d : 1.0f;
+}
+
+}  // namespace
+
+Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot* pilot_out) {
+  Scene out = scene;
+  IntegratorSettings& in = out.integrator;
+  if (in.radius > 0.0f) {
+    if (!(in.width > 0.0f)) in.width = in.radius;  // METHOD.md 8: w = r
+    return out;
+  }
+  ScalePilot pilot;
+  {
+    const SceneTables tables = flatten_scene(scene, 1, 1);
+    const GpuScene gpu(device, tables);
+    RenderSettings rs;
+    rs.seed = seed;
+    StreamSettings st = stream_settings(scene, rs, 0);
+    // The leaders' events alone: one photon per stream, at its leader.
+    st.associated = 1;
+    st.width = 0.0f;
+    StreamTracer tracer(device, gpu, st);
+    Timer timer;
+    const PhotonMaps maps = tracer.trace(0, 0.0f);
+    pilot.seconds = timer.lap();
+    for (const auto& r : maps.volume) pilot.volume.emplace_back(r.position[0], r.position[1], r.position[2]);
+    for (const auto& r : maps.surface) pilot.surface.emplace_back(r.position[0], r.position[1], r.position[2]);
+  }
+  float r = pilot_radius(pilot);
+  if (!(r > 0.0f)) r = scene_diagonal(scene) / 100.0f;
+  in.radius = r;
+  in.radius_derived = true;
+  if (!(in.width > 0.0f)) {
+    in.width = r;
+    in.width_derived = true;
+  }
+  if (pilot_out) *pilot_out = std::move(pilot);
+  return out;
+}
+
+}  // namespace spm

@@ -1,0 +1,60 @@
+// Settings a scene leaves out, derived from the scene rather than fixed in
+// its units (README "Defaults that follow the scene"): the same scene scaled
+// by any factor gets the same image.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <vector>
+
+#include "device/device.h"
+#include "scene/scene.h"
+
+namespace spm {
+
+// Photon streams per pass and associated photons per stream when the scene
+// and the command line name none. Counts carry no unit.
+inline constexpr int kDefaultStreams = 10000;
+inline constexpr int kDefaultAssociated = 16;
+
+// Distinct streams' records a density estimate aims to gather: the radius
+// is the distance to the kScaleNeighbours-th nearest record (README).
+inline constexpr int kScaleNeighbours = 32;
+
+int derived_streams(const IntegratorSettings& in);
+int derived_associated(const IntegratorSettings& in);
+
+// Camera samples per pixel in one pass when none is given: about one camera
+// sample per four photons, so that the gather and the stream propagation
+// take comparable time (measured here: a camera sample costs about four
+// times a photon), at least 1 and at most 64.
+int samples_per_pass(const Scene& scene, int width, int height);
+
+// Median over up to `queries` evenly spaced points of the distance to their
+// k-th nearest other point; 0 when there are at most k points.
+float neighbour_radius(const std::vector<glm::vec3>& points, int k, int queries = 256);
+
+// What a scale pilot measured: the leaders' event positions of one pass's
+// streams, which do not depend on the stream width.
+struct ScalePilot {
+  std::vector<glm::vec3> volume;   // medium events
+  std::vector<glm::vec3> surface;  // diffuse events
+  double seconds = 0.0;
+};
+
+// The first search radius for a pilot's events: the smaller of the volume
+// and surface neighbour radii where both maps have more than
+// kScaleNeighbours events, else the one that has; 0 when neither has.
+float pilot_radius(const ScalePilot& pilot);
+
+// `scene` with radius and width derived where they are 0: a pilot traces
+// the pass's streams with one associated photon and no width on `device`
+// (the leaders' paths, which the width does not change; one photon ends
+// by absorption sooner than N_a do, so the pilot sees somewhat fewer deep
+// events and errs towards a larger radius)
+// (deterministic: keyed by `seed` like pass 0), and the stream width
+// follows the radius (METHOD.md 8: r = w). The scene's bounding-box
+// diagonal / 100 stands in when the pilot finds no event.
+Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot* pilot = nullptr);
+
+}  // namespace spm
