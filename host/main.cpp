@@ -283,7 +283,7 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams'); default 10000");
   render->add_option("--associated", r.associated,
-                     "Associated photons per stream, N_a (integrator 'associated'); default 16");
+                     "Associated photons per stream, N_a (integrator 'associated'); default 4");
   render->add_option("--width", r.width,
                      "Stream width w: respawn sphere and deposit disk radius (integrator 'width'); default: the radius");
   render->add_option("--bounces", r.bounces,

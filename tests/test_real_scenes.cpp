@@ -246,7 +246,7 @@ TEST(ScaleFree, ScaledScenesRenderTheSameImage) {
 TEST(ScaleFree, SampleCountIsTheRendersTotalSamplesPerPixel) {
   spm::Scene scene = spm::load_scene(kFogBox, {{"res", "64"}, {"spp", "256"}});
   const spm::RenderSettings s = spm::resolve_settings(scene, {});
-  // 10000 x 16 photons over 4 x 4096 pixels: 10 samples per pass.
+  // 10000 x 4 photons over 4 x 4096 pixels: 2 samples per pass.
   EXPECT_EQ(s.spp, spm::samples_per_pass(scene, 64, 64));
   EXPECT_GE(s.spp * s.passes, 256);
   EXPECT_LT((s.spp - 1) * s.passes, 256);
