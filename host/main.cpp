@@ -278,7 +278,7 @@ int main(int argc, char** argv) {
                      "Number of passes (each a full emit, propagate, gather); default: the integrator's 'passes', "
                      "else enough passes for the sampler's sample_count (the render's samples per pixel)")
       ->check(CLI::PositiveNumber);
-  render->add_option("--seed", r.settings.seed, "Random seed");
+  render->add_option("--seed", r.settings.seed, "Random seed; default 0");
   render->add_option("-D", r.defines, "Override a <default> of the scene: -D name=value (repeatable)")
       ->allow_extra_args(false);
   render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams'); default 10000");
@@ -296,12 +296,12 @@ int main(int argc, char** argv) {
                      "Russian roulette on streams and paths from this vertex on (integrator 'rr_depth'); default 5")
       ->check(CLI::Range(1, 1 << 30));
   render->add_option("--march-step", r.march_step,
-                     "Ray-marching interval in media; 0 samples free flights exactly (integrator 'march_step')");
+                     "Ray-marching interval in media; 0 samples free flights exactly (integrator 'march_step'); default 0");
   render->add_option("--radius", r.radius,
                      "Search radius r of the estimates, first pass (integrator 'radius'); default: derived from a "
                      "pilot of the pass's streams, the distance to the 32nd nearest event");
   render->add_option("--alpha", r.alpha,
-                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha')");
+                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 2/3");
   render->add_option("--time", r.time,
                      "Render passes for this many seconds instead of a pass count (integrator 'time'); the passes "
                      "end within it, scene load, kernel builds and the pilot reported apart");
@@ -321,7 +321,8 @@ int main(int argc, char** argv) {
   render->add_option("--trace", r.trace,
                      "Write a Chrome trace (one track per device queue and the host) for ui.perfetto.dev");
   render->add_option("--device-memory", r.device_memory,
-                     "Device memory for a batch of streams, in bytes (also SPM_DEVICE_MEMORY); default: from the device")
+                     "Device memory all of a render's live buffers may hold at once on each device, in bytes (also "
+                     "SPM_DEVICE_MEMORY); default: the device's global memory")
       ->check(CLI::PositiveNumber);
   render->add_option("--dump-maps", r.settings.dump_maps,
                      "Write the first pass's maps as PREFIX_volume.ply and PREFIX_surface.ply (position, flux)");

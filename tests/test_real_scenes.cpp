@@ -285,4 +285,17 @@ TEST_F(TimeBudget, PassesEndWithinTheBudget) {
   EXPECT_NEAR(image_mean(timed), m.mean, 5 * std::sqrt(7.0) * m.error);
 }
 
+TEST_F(TimeBudget, HoldsWithTwoDevices) {
+  // Each device starts a pass only when it still fits its own clock.
+  const auto r = run("render " + kFogBox + " -o " + path("t.exr") + " -D res=32 --device all --time 2 --profile-json " +
+                         path("t.json"),
+                     "POCL_DEVICES=\"pthread pthread\"");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::ifstream in(path("t.json"));
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["devices"].size(), 2u);
+  EXPECT_LE(j["seconds"].get<double>(), 2.1);
+  EXPECT_GE(j["passes"].get<int>(), 1);
+}
+
 }  // namespace

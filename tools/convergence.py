@@ -6,14 +6,16 @@ with Mitsuba's volpath.
    estimator (--estimators, default bre and paper), at the reference's
    resolution; relMSE (eps 1e-2) against the reference, against passes and
    against seconds, as CSV and log-log plots.
-2. Equal time (--budgets, seconds): spm with the bre estimator, with as many
-   passes as the budget holds (from the sweep's seconds per pass), against
-   Mitsuba's volpath rendering chunks of samples for the same wall clock (the
-   scene's integrator replaced as tools/reference.py does, another seed than
-   the reference's), both judged against the reference; table (CSV and
-   markdown) and plot. Times are rendering times: spm's own "passes in X s"
-   (device set-up, kernel build and scene loading excluded) and Mitsuba's
-   render loop after a one-sample warm-up that compiles its kernels.
+2. Equal time (--budgets, seconds): spm with the bre estimator and its own
+   time budget (`--time B`: its passes end within B), against Mitsuba's
+   volpath rendering chunks of samples for the same wall clock (the scene's
+   integrator replaced as tools/reference.py does, another seed than the
+   reference's), both judged against the reference, in the same run; table
+   (CSV and markdown) and plot. Times are rendering times: spm's own
+   "passes in X s" (device set-up, kernel build, scene loading and the scale
+   pilot excluded; the whole command's wall clock is in the CSV) and
+   Mitsuba's render loop after a one-sample warm-up that compiles its
+   kernels.
 
 Everything goes to --out (default BUILD/convergence/SCENE); --summary-dir
 copies the small plots and the markdown table there too (for the README).
@@ -22,6 +24,9 @@ Example:
   tools/convergence.py scenes/cornell_fog.xml \\
       --reference tests/data/reference/cornell_fog.exr --passes 1,2,4,8,16,32 \\
       --budgets 2,5,10,20
+  # the global fog box (every spm setting derived, volpath unbounded):
+  tools/convergence.py scenes/fog_box.xml --reference tests/data/reference/fog_box.exr \\
+      --passes 1,4,16 --estimators bre --budgets 10 --max-depth -1
 """
 from __future__ import annotations
 
@@ -42,9 +47,11 @@ import reference  # noqa: E402
 RE_PASSES = re.compile(r"\((\d+) passes in ([0-9.]+) s")
 
 
-def run_spm(spm, scene, out, res, passes, estimator, seed, defines, extra, log):
+def run_spm(spm, scene, out, res, passes, estimator, seed, defines, extra, log, budget=None):
+    """`passes` passes, or passes for `budget` seconds when it is given."""
     cmd = [str(spm), "render", str(scene), "-o", str(out), "--png", str(Path(out).with_suffix(".png")),
-           "--res", f"{res[0]}x{res[1]}", "--passes", str(passes), "--estimator", estimator, "--seed", str(seed)]
+           "--res", f"{res[0]}x{res[1]}", "--estimator", estimator, "--seed", str(seed)]
+    cmd += ["--time", f"{budget:g}"] if budget is not None else ["--passes", str(passes)]
     for d in defines:
         cmd += ["-D", d]
     cmd += extra
@@ -57,7 +64,7 @@ def run_spm(spm, scene, out, res, passes, estimator, seed, defines, extra, log):
     if not m:
         raise SystemExit(f"convergence: no '(N passes in X s)' in spm's output:\n{p.stderr}")
     done, seconds = int(m.group(1)), float(m.group(2))
-    log(f"spm {estimator} {passes} passes: {seconds:.2f} s (process {wall:.2f} s)")
+    log(f"spm {estimator} {done} passes: {seconds:.2f} s (process {wall:.2f} s)")
     return {"passes": done, "seconds": seconds, "wall": wall, "command": " ".join(cmd)}
 
 
@@ -178,11 +185,6 @@ def main() -> int:
     budgets = [float(x) for x in args.budgets.split(",") if x]
     et_rows = []
     if budgets:
-        bre = [r for r in rows if r["estimator"] == "bre"] or [
-            {**run_spm(spm, args.scene, out / "spm_bre_calib.exr", res, 4, "bre", args.seed, args.defines,
-                       args.spm_arg, log)}]
-        longest = max(bre, key=lambda r: r["passes"])
-        per_pass = longest["seconds"] / longest["passes"]
         import mitsuba as mi
         defines = reference.parse_defines(args.defines)
         text = reference.substitute_integrator(args.scene.read_text(), args.max_depth, 5)
@@ -195,9 +197,9 @@ def main() -> int:
                              f"{res[0]}x{res[1]}: pass -D res=...")
         reference.render(scene, 1, 999, 1, 0.0, lambda *a: None)  # compile the kernels
         for b in budgets:
-            n = max(1, int(round(b / per_pass)))
             exr = out / f"equal_spm_{b:g}s.exr"
-            r = run_spm(spm, args.scene, exr, res, n, "bre", args.seed + 100, args.defines, args.spm_arg, log)
+            r = run_spm(spm, args.scene, exr, res, 0, "bre", args.seed + 100, args.defines, args.spm_arg, log,
+                        budget=b)
             ms = compare.metrics(compare.load_exr(exr), ref)
             chunk = max(1, min(scene_spp, 4096))
             img, spp_done, secs = reference.render(scene, 0, args.seed + 1000, chunk, b, lambda *a: None)
@@ -206,15 +208,18 @@ def main() -> int:
                 f"Mitsuba {spp_done} spp {secs:.2f} s relMSE {mm['relmse']:.4g}")
             reference.write_exr(out / f"equal_mitsuba_{b:g}s.exr", img)
             et_rows.append({"budget": b, "spm_passes": r["passes"], "spm_seconds": r["seconds"],
+                            "spm_wall": r["wall"],
                             "spm_relmse": ms["relmse"], "spm_mean_ratio": ms["mean_ratio_all"],
                             "mitsuba_spp": spp_done, "mitsuba_seconds": secs, "mitsuba_relmse": mm["relmse"],
                             "mitsuba_mean_ratio": mm["mean_ratio_all"], "variant": variant})
         write_csv(out / "equal_time.csv", et_rows, list(et_rows[0].keys()))
         plot_equal_time(et_rows, out / "equal_time.png", f"{name} {res[0]}x{res[1]}: equal time")
         md += ["", f"Equal time (spm bre vs Mitsuba {mi.__version__} volpath, {variant}, 2 cores):", "",
-               "| budget s | spm passes | spm s | spm relMSE | Mitsuba spp | Mitsuba s | Mitsuba relMSE |",
-               "|---|---|---|---|---|---|---|"]
-        md += [f"| {r['budget']:g} | {r['spm_passes']} | {r['spm_seconds']:.2f} | {r['spm_relmse']:.4g} | "
+               "| budget s | spm passes | spm s | spm command s | spm relMSE | Mitsuba spp | Mitsuba s | "
+               "Mitsuba relMSE |",
+               "|---|---|---|---|---|---|---|---|"]
+        md += [f"| {r['budget']:g} | {r['spm_passes']} | {r['spm_seconds']:.2f} | {r['spm_wall']:.2f} | "
+               f"{r['spm_relmse']:.4g} | "
                f"{r['mitsuba_spp']} | {r['mitsuba_seconds']:.2f} | {r['mitsuba_relmse']:.4g} |" for r in et_rows]
     (out / "summary.md").write_text("\n".join(md) + "\n")
     (out / "summary.json").write_text(json.dumps({"sweep": rows, "equal_time": et_rows}, indent=2) + "\n")
