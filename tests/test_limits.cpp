@@ -53,6 +53,26 @@ TEST_F(Limits, MemoryCapRendersTheSameImageInMoreBatchesTilesAndParts) {
   EXPECT_EQ(0, std::memcmp(b.rgb.data(), c.rgb.data(), b.rgb.size() * sizeof(float)));
 }
 
+// A pass's maps wait on the host only up to SPM_HOST_MEMORY: past it, the
+// streams traced so far are gathered and their maps dropped, and the parts
+// add up to the same image (to float rounding: another summation order).
+TEST_F(Limits, HostMemoryCapGathersAPassInParts) {
+  const std::string scene = SPM_SCENES_DIR "/cornell_fog.xml";
+  const std::string args =
+      " --res 64x48 --spp 1 --passes 2 --streams 2000 --associated 20 --device-memory 1500000 --profile-json ";
+  ASSERT_EQ(run("render " + scene + " -o " + path("a.exr") + args + path("a.json")).code, 0);
+  const auto capped = run("render " + scene + " -o " + path("b.exr") + args + path("b.json"), "SPM_HOST_MEMORY=200000");
+  ASSERT_EQ(capped.code, 0) << capped.err;
+  const spm::Image a = spm::read_exr(path("a.exr")), b = spm::read_exr(path("b.exr"));
+  ASSERT_EQ(a.rgb.size(), b.rgb.size());
+  for (size_t i = 0; i < a.rgb.size(); ++i) ASSERT_NEAR(a.rgb[i], b.rgb[i], 1e-5f * (1.0f + a.rgb[i])) << i;
+  const auto ja = read_json(path("a.json")), jb = read_json(path("b.json"));
+  EXPECT_EQ(ja["passes_detail"][0]["host_parts"], 1);
+  EXPECT_GT(jb["passes_detail"][0]["host_parts"].get<int>(), 1);
+  EXPECT_EQ(ja["counters"]["records"], jb["counters"]["records"]);
+  EXPECT_EQ(run("render " + scene + " -o " + path("c.exr") + args + path("c.json"), "SPM_HOST_MEMORY=x").code, 2);
+}
+
 // Every live buffer counts against one budget until its last copy goes.
 TEST(DeviceMemory, LiveBuffersShareOneBudget) {
   spm::Device dev(spm::select_device(std::getenv("SPM_TEST_DEVICE") ? std::getenv("SPM_TEST_DEVICE") : ""), "");

@@ -66,7 +66,8 @@ void Profiler::add_pass(int device, int pass, const PassCounters& c) {
                      {"live_per_iteration", c.live},
                      {"volume_records", c.volume_records},
                      {"surface_records", c.surface_records},
-                     {"map_parts", c.map_parts}});
+                     {"map_parts", c.map_parts},
+                     {"host_parts", c.host_parts}});
 }
 
 std::map<std::string, KernelTimes> Profiler::kernels() const {

@@ -36,7 +36,8 @@ struct PassCounters {
   uint64_t surface_records = 0;
   uint64_t camera_samples = 0;
   uint64_t sphere_tests = 0;
-  uint64_t map_parts = 1;  // parts the maps were gathered in to fit the device memory
+  uint64_t map_parts = 1;   // parts the maps were gathered in to fit the device memory
+  uint64_t host_parts = 1;  // parts the pass's streams were gathered in to fit the host memory
 };
 
 class Profiler {

@@ -1,6 +1,9 @@
 #include "render/pass_renderer.h"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <initializer_list>
 
 #include "spm/gather.h"
@@ -56,6 +59,37 @@ size_t gather_tile(const Device& device, const RenderSettings& s, size_t share) 
   return std::min(tile, std::max<size_t>(1, share / kBytesPerPixel));
 }
 
+// Host bytes of the maps' records.
+size_t map_bytes(const PhotonMaps& m) {
+  return m.volume.size() * sizeof(SpmVolumeRecord) + m.surface.size() * sizeof(SpmSurfaceRecord);
+}
+
+// Appends the maps of the next streams: both stay ordered by (stream,
+// depth), and the statistics add up.
+void append(PhotonMaps& to, PhotonMaps&& from) {
+  to.volume.insert(to.volume.end(), from.volume.begin(), from.volume.end());
+  to.surface.insert(to.surface.end(), from.surface.begin(), from.surface.end());
+  to.stats.batches += from.stats.batches;
+  to.stats.flushes += from.stats.flushes;
+  to.stats.live.insert(to.stats.live.end(), from.stats.live.begin(), from.stats.live.end());
+  for (int k = 0; k < SPM_COUNTERS; ++k) to.stats.counters[k] += from.stats.counters[k];
+}
+
+// Host memory the maps of a pass may hold before they are gathered:
+// SPM_HOST_MEMORY bytes, else a quarter of the machine's memory.
+size_t host_map_budget() {
+  if (const char* env = std::getenv("SPM_HOST_MEMORY")) {
+    char* end = nullptr;
+    const unsigned long long v = std::strtoull(env, &end, 10);
+    if (*env == 0 || *end != 0 || v == 0) {
+      throw InputError("SPM_HOST_MEMORY", std::string("expected bytes, got '") + env + "'");
+    }
+    return static_cast<size_t>(v);
+  }
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && page > 0 ? size_t(pages) * size_t(page) / 4 : size_t(1) << 30;
+}
+
 // The maps' records in `parts` contiguous ranges of each map, the k-th.
 template <class Record>
 std::vector<Record> part_of(const std::vector<Record>& records, size_t k, size_t parts) {
@@ -83,50 +117,42 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       direct_(code_of(scene.integrator.direct, {"nee", "photons"})) {
   const size_t used = tracer_.bytes() + tile_ * kBytesPerPixel + sizeof(cl_uint);
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;
+  host_budget_ = host_map_budget();
 }
 
-PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
-  const IntegratorSettings& in = scene_.integrator;
-  const RenderSettings& s = settings_;
-  const size_t pixels = size_t(s.width) * s.height;
-  PassOutput out;
-  const auto stage = [&](const char* name, double start) {
-    if (profiler) profiler->stage(name, start, profiler->now(), track);
-  };
-  const auto clock = [&] { return profiler ? profiler->now() : 0.0; };
-  Timer timer;
+double PassRenderer::Stages::now() const { return profiler ? profiler->now() : 0.0; }
 
-  // Progressive radius (METHOD.md 6), the stream width shrinking with it.
-  const float radius = pass_radius(in.radius, in.alpha, pass);
-  double t = clock();
-  const PhotonMaps maps = tracer_.trace(static_cast<uint32_t>(pass), in.width * radius / in.radius);
-  out.propagate_seconds = timer.lap();
-  stage("propagate", t);
-  if (pass == 0 && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
-  timer.lap();
+double PassRenderer::Stages::lap() const { return timer->lap(); }
 
+void PassRenderer::Stages::stage(const char* name, double start) const {
+  if (profiler) profiler->stage(name, start, profiler->now(), track);
+}
+
+void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool direct_terms, PassOutput& out,
+                          const Stages& stages) {
   // The estimates are sums over records, so maps whose grids do not fit the
   // device memory left are gathered in parts, each part's grids built,
   // uploaded and gathered along the same camera paths (same random
   // numbers), the parts' films summed; emission and next-event estimation
   // come with the first part only.
-  out.rgb.assign(pixels * 3, 0.0f);
-  const cl_uint no_error = 0;
-  device_.queue().enqueueWriteBuffer(errors_, CL_FALSE, 0, sizeof no_error, &no_error);
+  const IntegratorSettings& in = scene_.integrator;
+  const RenderSettings& s = settings_;
+  const size_t pixels = size_t(s.width) * s.height;
   const bool skip_direct = direct_ == kDirectNee;
   const cl_uint max_depth = in.max_depth < 0 ? SPM_NONE : cl_uint(in.max_depth);
   const size_t records = maps.volume.size() + maps.surface.size();
+  std::vector<float> rgb(pixels * 3, 0.0f);
+  uint64_t tests = 0;
   size_t parts = 1;
   for (size_t k = 0; k < parts;) {
-    t = clock();
+    double t = stages.now();
     MapGridData data = map_grid_data(part_of(maps.volume, k, parts), part_of(maps.surface, k, parts), radius,
                                      skip_direct);
-    const size_t free = maps_budget_;
-    if (data.bytes() > free) {
-      if (parts == 1 && free > 0) {
+    if (data.bytes() > maps_budget_) {
+      if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
         // that still does not fit halves them all again below.
-        parts = std::max<size_t>(2, size_t(1.25 * double(data.bytes()) / double(free)) + 1);
+        parts = std::max<size_t>(2, size_t(1.25 * double(data.bytes()) / double(maps_budget_)) + 1);
         continue;
       }
       if (parts >= std::max<size_t>(1, records)) {
@@ -137,40 +163,81 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
       }
       parts *= 2;  // start again with smaller parts
       k = 0;
-      out.rgb.assign(pixels * 3, 0.0f);
-      out.counters.sphere_tests = 0;
+      rgb.assign(pixels * 3, 0.0f);
+      tests = 0;
       continue;
     }
     const MapGrids grids(device_, data);
     data = MapGridData{};
-    out.grid_seconds += timer.lap();
-    stage("grid", t);
-    t = clock();
+    out.grid_seconds += stages.lap();
+    stages.stage("grid", t);
+    t = stages.now();
     for (size_t first = 0; first < pixels; first += tile_) {
       const size_t count = std::min(tile_, pixels - first);
       set_args(gather_, gpu_, gpu_.camera(), film_, tests_, errors_, cl_uint(first), cl_uint(count), cl_uint(s.spp),
-               max_depth, cl_uint(k == 0), cl_uint(s.seed), cl_uint(pass), radius, kernel_type_, estimator_, direct_,
-               grids);
+               max_depth, cl_uint(direct_terms && k == 0), cl_uint(s.seed), cl_uint(pass), radius, kernel_type_,
+               estimator_, direct_, grids);
       device_.launch("gather", gather_, count);
       const auto film = device_.download<cl_float4>(film_, count);
       for (size_t i = 0; i < count; ++i) {
-        for (int c = 0; c < 3; ++c) out.rgb[3 * (first + i) + c] += film[i].s[c];
+        for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];
       }
-      for (cl_uint n : device_.download<cl_uint>(tests_, count)) out.counters.sphere_tests += n;
+      for (cl_uint n : device_.download<cl_uint>(tests_, count)) tests += n;
     }
-    out.gather_seconds += timer.lap();
-    stage("gather", t);
+    out.gather_seconds += stages.lap();
+    stages.stage("gather", t);
     ++k;
   }
-  out.counters.map_parts = parts;
+  for (size_t i = 0; i < rgb.size(); ++i) out.rgb[i] += rgb[i];
+  out.counters.sphere_tests += tests;
+  out.counters.map_parts += parts;
+}
+
+PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
+  const IntegratorSettings& in = scene_.integrator;
+  const RenderSettings& s = settings_;
+  const size_t pixels = size_t(s.width) * s.height;
+  PassOutput out;
+  out.rgb.assign(pixels * 3, 0.0f);
+  out.counters.map_parts = 0;
+  out.counters.host_parts = 0;
+  Timer timer;
+  const Stages stages{profiler, track, &timer};
+  const cl_uint no_error = 0;
+  device_.queue().enqueueWriteBuffer(errors_, CL_FALSE, 0, sizeof no_error, &no_error);
+
+  // Progressive radius (METHOD.md 6), the stream width shrinking with it.
+  const float radius = pass_radius(in.radius, in.alpha, pass);
+  const float width = in.width * radius / in.radius;
+  // The pass's streams batch by batch; their maps wait on the host until
+  // they pass the host budget or the streams run out, and are then gathered
+  // and dropped (the estimates are sums over records, so the parts add up
+  // to the pass), which bounds the host's memory for any stream count.
+  const uint32_t streams = tracer_.settings().streams;
+  PhotonMaps maps;
+  bool first_part = true;
+  for (uint32_t first = 0; first < streams;) {
+    const double t = stages.now();
+    const uint32_t count = std::min(tracer_.batch_capacity(), streams - first);
+    append(maps, tracer_.trace(static_cast<uint32_t>(pass), width, first, count));
+    first += count;
+    out.propagate_seconds += stages.lap();
+    stages.stage("propagate", t);
+    if (first < streams && map_bytes(maps) < host_budget_) continue;
+    if (pass == 0 && first_part && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
+    stages.lap();
+    gather(maps, pass, radius, first_part, out, stages);
+    out.counters.live.insert(out.counters.live.end(), maps.stats.live.begin(), maps.stats.live.end());
+    for (int k = 0; k < SPM_COUNTERS; ++k) out.counters.stream_counters[k] += maps.stats.counters[k];
+    out.counters.volume_records += maps.volume.size();
+    out.counters.surface_records += maps.surface.size();
+    ++out.counters.host_parts;
+    maps = PhotonMaps{};
+    first_part = false;
+  }
   if (device_.download<cl_uint>(errors_, 1)[0] & SPM_ERROR_NONFINITE) {
     throw RuntimeError("gather, pass " + std::to_string(pass) + ": a pixel's radiance is NaN or infinite");
   }
-
-  out.counters.live = maps.stats.live;
-  out.counters.stream_counters = maps.stats.counters;
-  out.counters.volume_records = maps.volume.size();
-  out.counters.surface_records = maps.surface.size();
   out.counters.camera_samples = uint64_t(pixels) * s.spp;
   return out;
 }

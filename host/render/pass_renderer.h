@@ -10,6 +10,7 @@
 #include "render/render.h"
 #include "scene/gpu_scene.h"
 #include "spm/streams.h"
+#include "util/timer.h"
 
 namespace spm {
 
@@ -28,6 +29,21 @@ class PassRenderer {
   PassOutput render(int pass, Profiler* profiler, int track);
 
  private:
+  // Where the host stages of a pass go, and their clock.
+  struct Stages {
+    Profiler* profiler;
+    int track;
+    Timer* timer;
+    double now() const;
+    double lap() const;  // seconds since the last lap
+    void stage(const char* name, double start) const;
+  };
+
+  // Gathers `maps` into out.rgb (added), in parts that fit the device;
+  // `direct_terms`: this gather adds emission and next-event estimation.
+  void gather(const PhotonMaps& maps, int pass, float radius, bool direct_terms, PassOutput& out,
+              const Stages& stages);
+
   Device& device_;
   const Scene& scene_;
   RenderSettings settings_;
@@ -36,6 +52,7 @@ class PassRenderer {
   cl::Kernel gather_;
   size_t tile_ = 0;  // pixels per gather launch: the film of a tile fits one allocation
   size_t maps_budget_ = 0;  // device bytes the maps' grids of a pass (or of each part) may take
+  size_t host_budget_ = 0;  // host bytes a pass's maps may hold before they are gathered (SPM_HOST_MEMORY)
   DeviceBuffer film_, tests_, errors_;
   cl_uint kernel_type_, estimator_, direct_;
 };

@@ -158,13 +158,16 @@ void StreamTracer::flush(PhotonMaps& maps) {
   device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
-PhotonMaps StreamTracer::trace(uint32_t pass, float width) {
+PhotonMaps StreamTracer::trace(uint32_t pass, float width) { return trace(pass, width, 0, settings_.streams); }
+
+PhotonMaps StreamTracer::trace(uint32_t pass, float width, uint32_t begin, uint32_t streams) {
   settings_.pass = pass;
   settings_.width = width;
   PhotonMaps maps;
   maps.stats.batch_size = capacity_;
-  for (uint32_t first = 0; first < settings_.streams; first += capacity_) {
-    const uint32_t count = std::min(capacity_, settings_.streams - first);
+  const uint32_t end = std::min(settings_.streams, begin + streams);
+  for (uint32_t first = begin; first < end; first += capacity_) {
+    const uint32_t count = std::min(capacity_, end - first);
     emit(first, count);
     maps.stats.counters[SPM_COUNT_STREAMS] += count;
     ++maps.stats.batches;

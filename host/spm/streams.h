@@ -57,6 +57,12 @@ class StreamTracer {
   // the maps come back ordered. The tracer's buffers serve every pass.
   PhotonMaps trace(uint32_t pass, float width);
 
+  // Streams [first, first + count) of the pass alone: the maps of
+  // consecutive ranges, concatenated, are those of the whole pass.
+  PhotonMaps trace(uint32_t pass, float width, uint32_t first, uint32_t count);
+
+  const StreamSettings& settings() const { return settings_; }
+
   // Emits streams [first, first + count) of the pass (count <= capacity) and
   // places their associated photons in the disk around the origin.
   void emit(uint32_t first, uint32_t count);
