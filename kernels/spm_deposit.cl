@@ -1,17 +1,18 @@
-/* spm_deposit: a diffuse event's surface photon records (METHOD.md 3).
+/* spm_deposit: a diffuse event's surface photon records (METHOD.md 1, 3).
  * From: streams with SPM_ACT_DEPOSIT. To: surface map slots
  * [record_base, record_base + n) reserved by interact.
- * One work-item per associated photon: each alive photon is re-placed
- * uniformly in the disk of radius w around the hit, in the tangent plane, and
- * recorded with flux phi. A collapsed stream (n = 1) deposits its one photon
+ * One work-item per associated photon: each alive photon lands where the
+ * line through its offset from the leader, parallel to the leader's
+ * direction, meets the tangent plane at the hit, so the footprint is the
+ * stream's cross-section projected onto the surface (an ellipse of area
+ * pi w^2 / |cos theta| for a disk of radius w across the direction), and is
+ * recorded with flux phi. A collapsed stream deposits its one photon
  * exactly at the hit, so caustics stay sharp (METHOD.md 4). */
 #include "spm_types.h"
-#include "lib/sampling.h"
 #include "lib/stream.h"
 
-__kernel void spm_deposit(const __global uint* queue, uint count SPM_STREAM_PARAMS,
-                          uint associated, float width, __global SpmSurfaceRecord* surface, uint surface_capacity,
-                          uint seed, uint pass) {
+__kernel void spm_deposit(const __global uint* queue, uint count SPM_STREAM_PARAMS, uint associated, float width,
+                          __global SpmSurfaceRecord* surface, uint surface_capacity, uint seed, uint pass) {
   uint q, j;
   if (!photon_item(get_global_id(0), count, associated, &q, &j)) return;
   const uint s = queue[q];
@@ -21,12 +22,10 @@ __kernel void spm_deposit(const __global uint* queue, uint count SPM_STREAM_PARA
   if (slot >= surface_capacity) return; /* interact raised SPM_ERROR_SURFACE_OVERFLOW */
   const float3 x = st_event_pos[s].xyz;
   const float3 normal = st_event_normal[s].xyz;
-  float3 p = x;
-  if (n > 1) {
-    const float4 u = rng4(STREAM_EVENT_RNG(s, seed, pass), SPM_RNG_DEPOSIT, j);
-    p = in_tangent_disk(x, normal, sample_disk(u.x, u.y), width);
-  }
   const float4 dir = st_event_dir[s];
+  const float3 p = (st_flags[s] & SPM_STREAM_COLLAPSED)
+                       ? x
+                       : land_on_plane(x, normal, dir.xyz, stream_offset(st_offsets[s], seed, pass, st_id[s], j, width));
   __global SpmSurfaceRecord* r = &surface[slot];
   vstore3(p, 0, r->position);
   vstore3(dir.xyz, 0, r->direction);

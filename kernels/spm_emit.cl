@@ -1,7 +1,8 @@
 /* spm_emit: starts a batch of streams (METHOD.md 2).
  * From: nothing. To: queue (every stream live), state SPM_ACT_DISK so that
- * respawn places the associated photons in the disk of radius w around the
- * origin, in the light's plane.
+ * respawn gives the associated photons offsets in the disk of radius w
+ * around the origin, in the light's plane (across the direction for point
+ * and spot lights).
  *
  * A light is picked with probability proportional to its power; the leader
  * starts uniformly on it, cosine-weighted about the normal (area), uniform

@@ -133,6 +133,7 @@ __kernel void spm_interact(SPM_SCENE_PARAMS, const __global uint* queue, uint co
       st_phi[s] *= (float4)((float)n, (float)n, (float)n, 1.0f);
       n = 1;
       st_alive[s] = 1;
+      st_flags[s] |= SPM_STREAM_COLLAPSED;
       float3 next;
       if (specular_bounce(mat, &surf, d, rng4(rng, SPM_RNG_BSDF, 0).x, false, &next) == 0.0f) {
         act = SPM_ACT_END;

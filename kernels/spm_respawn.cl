@@ -1,24 +1,26 @@
-/* spm_respawn: survivors re-placed around the leader (METHOD.md 3; paper 3.1
- * step 3). From: streams with SPM_ACT_SPHERE or SPM_ACT_DISK. To: photon
- * positions [slot * associated, + alive_next).
- * After a medium event each surviving associated photon is placed uniformly
- * in the sphere of radius w around the leader's new position; after emission
- * and diffuse events, uniformly in the disk of radius w in the surface's (or
- * light's) plane. */
+/* spm_respawn: the associated photons' offsets from the leader (METHOD.md
+ * 1 and 3; paper 3.1 step 3). From: streams with SPM_ACT_SPHERE or
+ * SPM_ACT_DISK. To: the stream's offset frame, which the next diffuse
+ * event's deposit lands on its tangent plane.
+ * After a medium event each surviving associated photon j gets an offset
+ * uniform in the sphere of radius w; after emission and diffuse events,
+ * uniform in the disk of radius w in the light's (or surface's) plane. The
+ * offsets travel with the leader until they are re-placed. They are a pure
+ * function of (stream, event, j) (METHOD.md 7), so respawn keeps only that
+ * event and the sphere or the disk's normal, and deposit draws photon j's
+ * offset when it lands it (stream_offset in lib/stream.h), which measured
+ * cheaper than drawing and storing N_a offsets here (README).
+ * A collapsed stream has no offsets: its one photon is the leader
+ * (METHOD.md 4). */
 #include "spm_types.h"
-#include "lib/sampling.h"
 #include "lib/stream.h"
 
-__kernel void spm_respawn(const __global uint* queue, uint count SPM_STREAM_PARAMS, __global float4* photons,
-                          uint associated, float width, uint seed, uint pass) {
-  uint q, j;
-  if (!photon_item(get_global_id(0), count, associated, &q, &j)) return;
+__kernel void spm_respawn(const __global uint* queue, uint count SPM_STREAM_PARAMS) {
+  const uint q = get_global_id(0);
+  if (q >= count) return;
   const uint s = queue[q];
   const uint act = st_state[s];
-  if (!(act & (SPM_ACT_SPHERE | SPM_ACT_DISK)) || j >= st_alive_next[s]) return;
-  const float4 u = rng4(STREAM_EVENT_RNG(s, seed, pass), SPM_RNG_RESPAWN, j);
-  const float3 x = st_event_pos[s].xyz;
-  const float3 p = (act & SPM_ACT_SPHERE) ? x + width * sample_ball(u.x, u.y, u.z)
-                                          : in_tangent_disk(x, st_event_normal[s].xyz, sample_disk(u.x, u.y), width);
-  photons[(size_t)s * associated + j] = (float4)(p, 0.0f);
+  if (!(act & (SPM_ACT_SPHERE | SPM_ACT_DISK)) || (st_flags[s] & SPM_STREAM_COLLAPSED)) return;
+  const uint ball = (act & SPM_ACT_SPHERE) ? 1u : 0u;
+  st_offsets[s] = (float4)(st_event_normal[s].xyz, as_float(((st_events[s] - 1u) << 1) | ball));
 }

@@ -14,6 +14,7 @@
   X(float4, event_pos)    /* interact: where the event happened */                             \
   X(float4, event_dir)    /* interact: arriving direction; w: 1 if the stream had an event */  \
   X(float4, event_normal) /* interact: surface normal on the arriving side */                  \
+  X(float4, offsets)      /* respawn: disk normal; w: (event << 1) | ball, spm_respawn.cl */  \
   X(float4, scale)        /* absorb: survivors' flux factor per channel; w: survival prob. */  \
   X(uint, alive)          /* n: alive associated photons */                                    \
   X(uint, alive_next)     /* absorb: survivors of this event */                                \
@@ -24,7 +25,7 @@
   X(float, flux0)         /* max over RGB of the emitted stream flux N_a phi (roulette) */     \
   X(uint, medium_events)  /* medium interactions so far (safety cap) */                        \
   X(uint, state)          /* march: SPM_EV_*; interact onwards: SPM_ACT_* bits */              \
-  X(uint, flags)          /* SPM_STREAM_HAD_EVENT */                                           \
+  X(uint, flags)          /* SPM_STREAM_HAD_EVENT, SPM_STREAM_COLLAPSED */                     \
   X(uint, record_base)    /* first surface-map slot of this event's deposit */                 \
   X(uint, id)             /* stream id within the pass: the RNG counter */
 
@@ -41,6 +42,7 @@
 #define SPM_ACT_END 16u    /* the stream ends after this event */
 
 #define SPM_STREAM_HAD_EVENT 1u
+#define SPM_STREAM_COLLAPSED 2u /* a specular event collapsed the stream (METHOD.md 4) */
 
 /* Counters shared by the stream kernels and read by the host each iteration. */
 #define SPM_COUNT_LIVE 0    /* streams in the next queue */

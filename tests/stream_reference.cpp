@@ -19,7 +19,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr uint32_t kMaxMarchSteps = 1u << 22;  // SPM_MAX_MARCH_STEPS (spm_march.cl)
 
 // Counter purposes (kernels/lib/rng.h).
-constexpr uint32_t kRngBsdf = 3, kRngDistance = 4, kRngPhase = 5, kRngAbsorb = 6, kRngEmit = 8, kRngDeposit = 9,
+constexpr uint32_t kRngBsdf = 3, kRngDistance = 4, kRngPhase = 5, kRngAbsorb = 6, kRngRespawn = 7, kRngEmit = 8,
                    kRngRoulette = 10;
 
 // March outcomes (SPM_EV_*).
@@ -53,6 +53,7 @@ float fexpm1(float x) { return rounded(std::expm1(x)); }
 float flog1p(float x) { return rounded(std::log1p(x)); }
 float fsin(float x) { return rounded(std::sin(x)); }
 float fcos(float x) { return rounded(std::cos(x)); }
+float fcbrt(float x) { return rounded(std::cbrt(x)); }
 float facos(float x) { return rounded(std::acos(x)); }
 
 // ---- float3 as the kernels use it --------------------------------------------
@@ -144,6 +145,15 @@ V3 in_tangent_disk(V3 x, V3 n, float ux, float uy, float radius) {
   V3 t, b;
   make_basis(n, &t, &b);
   return x + radius * (ux * t + uy * b);
+}
+
+V3 sample_ball(float u1, float u2, float u3) { return fcbrt(u1) * sample_uniform_sphere(u2, u3); }
+
+// kernels/lib/stream.h's land_on_plane (METHOD.md 1).
+V3 land_on_plane(V3 x, V3 n, V3 d, V3 offset) {
+  const float dn = dot(d, n), on = dot(offset, n);
+  if (std::fabs(dn) < 1e-6f) return x + offset - on * n;
+  return x + offset - (on / dn) * d;
 }
 
 V3 sample_phase(V3 d, float g, float u1, float u2) {
@@ -566,14 +576,33 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
   } else if (l.type == SPM_LIGHT_POINT) {
     p = load3(l.position);
     d = sample_uniform_sphere(u1.v[0], u1.v[1]);
+    n = d;
     power = 4.0f * kPi * load3(l.emission);
   } else {
     p = load3(l.position);
     const V3 cone = sample_uniform_cone(u1.v[0], u1.v[1], l.cos_cutoff);
     d = normalize(cone.x * load3(l.axis_x) + cone.y * load3(l.axis_y) + cone.z * load3(l.axis_z));
+    n = d;
     power = load3(l.emission) * spot_falloff(l, cone.z) * (2.0f * kPi * (1.0f - l.cos_cutoff));
   }
   V3 origin = p, dir = d;
+  // spm_respawn: the associated photons' offsets from the leader, the disk
+  // across the light's plane at emission (event 0), re-placed after each
+  // medium (ball) and diffuse (tangent disk) event; a collapsed stream has none.
+  std::vector<V3> offsets(set.associated);
+  const auto respawn = [&](uint32_t count, const Rng& rng, bool ball, V3 normal) {
+    for (uint32_t j = 0; j < count; ++j) {
+      const U4 u = rng4(rng, kRngRespawn, j);
+      if (ball) {
+        offsets[j] = set.width * sample_ball(u.v[0], u.v[1], u.v[2]);
+      } else {
+        float dx, dy;
+        sample_disk(u.v[0], u.v[1], &dx, &dy);
+        offsets[j] = in_tangent_disk(V3{0.0f, 0.0f, 0.0f}, normal, dx, dy, set.width);
+      }
+    }
+  };
+  respawn(set.associated, emit_rng, false, n);
   V3 phi = power / (prob * (float)set.streams * (float)set.associated);
   const float flux0 = (float)set.associated * max_comp(phi);
   uint32_t alive = set.associated;
@@ -616,7 +645,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
     uint32_t n = alive;
     uint32_t act = 0;
     Survival scale;
-    V3 event_pos, event_dir, event_normal;
+    V3 event_pos{}, event_dir{}, event_normal{};
     bool event_had_event = false;
     if (state == Event::Escape) {
       act = SPM_ACT_END;
@@ -755,13 +784,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
     // ---- spm_deposit: one record per alive photon, before absorption ----
     if (act & SPM_ACT_DEPOSIT) {
       for (uint32_t j = 0; j < n; ++j) {
-        V3 pos = event_pos;
-        if (n > 1) {
-          const U4 u = rng4(rng, kRngDeposit, j);
-          float dx, dy;
-          sample_disk(u.v[0], u.v[1], &dx, &dy);
-          pos = in_tangent_disk(event_pos, event_normal, dx, dy, set.width);
-        }
+        const V3 pos = out.collapsed ? event_pos : land_on_plane(event_pos, event_normal, event_dir, offsets[j]);
         SpmSurfaceRecord r{};
         store3(pos, r.position);
         store3(event_dir, r.direction);
@@ -783,7 +806,10 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
       phi = phi * scale.factor;
     }
 
-    // ---- spm_respawn places the survivors (no records); spm_compact ----
+    // ---- spm_respawn gives the survivors new offsets; spm_compact ----
+    if ((act & (SPM_ACT_SPHERE | SPM_ACT_DISK)) && !out.collapsed) {
+      respawn(alive_next, rng, (act & SPM_ACT_SPHERE) != 0, event_normal);
+    }
     alive = alive_next;
     out.act = act;
     if (!(alive > 0 && !(act & SPM_ACT_END))) {

@@ -217,6 +217,26 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   }
 }
 
+// A grazing stream's photons can land on their tangent plane far outside
+// the scene (METHOD.md 1); the grid leaves out those beyond the scene's
+// bounds grown by r, which no query can reach, and keeps the rest.
+TEST(SurfaceEstimate, RecordsBeyondTheQueriesReachAreLeftOut) {
+  std::vector<SpmSurfaceRecord> records(4);
+  const float xs[4] = {0.0f, 10.9f, 11.1f, -1e6f};
+  for (int i = 0; i < 4; ++i) {
+    records[i].position[0] = xs[i];
+    records[i].flags = SPM_RECORD_HAD_EVENT;
+  }
+  spm::QueryBounds reach;
+  reach.lo = glm::vec3(-11.0f);
+  reach.hi = glm::vec3(11.0f);
+  const auto used = spm::used_surface_records(records, true, reach);
+  ASSERT_EQ(used.size(), 2u);
+  EXPECT_EQ(used[0].position[0], 0.0f);
+  EXPECT_EQ(used[1].position[0], 10.9f);
+  EXPECT_EQ(spm::used_surface_records(records, true).size(), 4u);
+}
+
 TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   // N photons of flux phi spread uniformly over an A x A square: the estimate
   // of the flux density is N phi / A^2 within its standard error, which for a

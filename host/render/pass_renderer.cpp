@@ -118,6 +118,10 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
   const size_t used = tracer_.bytes() + tile_ * kBytesPerPixel + sizeof(cl_uint);
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;
   host_budget_ = host_map_budget();
+  if (!tables.nodes.empty() && !tables.prims.empty()) {
+    scene_lo_ = glm::vec3(tables.nodes[0].lo[0], tables.nodes[0].lo[1], tables.nodes[0].lo[2]);
+    scene_hi_ = glm::vec3(tables.nodes[0].hi[0], tables.nodes[0].hi[1], tables.nodes[0].hi[2]);
+  }
 }
 
 double PassRenderer::Stages::now() const { return profiler ? profiler->now() : 0.0; }
@@ -146,8 +150,11 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
   size_t parts = 1;
   for (size_t k = 0; k < parts;) {
     double t = stages.now();
+    QueryBounds reach;
+    reach.lo = scene_lo_ - glm::vec3(radius);
+    reach.hi = scene_hi_ + glm::vec3(radius);
     MapGridData data = map_grid_data(part_of(maps.volume, k, parts), part_of(maps.surface, k, parts), radius,
-                                     skip_direct);
+                                     skip_direct, reach);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part

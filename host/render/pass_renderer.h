@@ -3,6 +3,7 @@
 // float image (METHOD.md 6: a pass is a full emit, propagate, grid, gather).
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include "device/device.h"
@@ -52,6 +53,7 @@ class PassRenderer {
   cl::Kernel gather_;
   size_t tile_ = 0;  // pixels per gather launch: the film of a tile fits one allocation
   size_t maps_budget_ = 0;  // device bytes the maps' grids of a pass (or of each part) may take
+  glm::vec3 scene_lo_{-INFINITY}, scene_hi_{INFINITY};  // the BVH's bounds: where surface queries can be
   size_t host_budget_ = 0;  // host bytes a pass's maps may hold before they are gathered (SPM_HOST_MEMORY)
   DeviceBuffer film_, tests_, errors_;
   cl_uint kernel_type_, estimator_, direct_;

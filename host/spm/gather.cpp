@@ -65,11 +65,19 @@ std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vect
                   });
 }
 
-std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct) {
-  if (!skip_direct) return records;
+bool QueryBounds::contains(const float* p) const {
+  for (int k = 0; k < 3; ++k) {
+    if (!(p[k] >= lo[k] && p[k] <= hi[k])) return false;
+  }
+  return true;
+}
+
+std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
+                                                   const QueryBounds& reach) {
   std::vector<SpmSurfaceRecord> out;
+  out.reserve(records.size());
   for (const auto& r : records) {
-    if (r.flags & SPM_RECORD_HAD_EVENT) out.push_back(r);
+    if ((!skip_direct || (r.flags & SPM_RECORD_HAD_EVENT)) && reach.contains(r.position)) out.push_back(r);
   }
   return out;
 }
@@ -86,9 +94,9 @@ size_t MapGridData::bytes() const {
 }
 
 MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface_all,
-                          float radius, bool skip_direct) {
+                          float radius, bool skip_direct, const QueryBounds& reach) {
   MapGridData d;
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct);
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct, reach);
   d.volume = volume_grid(volume, radius);
   d.surface = surface_grid(surface, radius);
   d.volume_pos = volume_item_positions(d.volume, volume);

@@ -3,6 +3,7 @@
 // gather's own arguments in the order of kernels/spm_gather.cl.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include "device/device.h"
@@ -31,9 +32,21 @@ std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::
 std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
 std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
 
+// The part of space the gather's queries can reach: the scene's bounds
+// grown by the radius. A photon that lands on a tangent plane outside it
+// (a grazing stream's footprint runs far, METHOD.md 1) is within r of no
+// surface point, so no estimate could count it.
+struct QueryBounds {
+  glm::vec3 lo{-INFINITY}, hi{INFINITY};
+  bool contains(const float* p) const;
+};
+
 // The surface records the gather uses: with next-event estimation
-// (`skip_direct`), not those of streams that had no event before (METHOD.md 5).
-std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct);
+// (`skip_direct`), not those of streams that had no event before (METHOD.md
+// 5); and only those inside `reach`, so that the grid stays as tight as the
+// scene.
+std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
+                                                   const QueryBounds& reach = {});
 
 // The gather's grids of some map records, built on the host: the volume
 // map's sphere grid and the surface map's point grid with their per-item
@@ -45,9 +58,9 @@ struct MapGridData {
   size_t bytes() const;  // device memory of the upload
 };
 
-// `surface` as the gather uses it (used_surface_records with skip_direct).
+// `surface` as the gather uses it (used_surface_records).
 MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface,
-                          float radius, bool skip_direct);
+                          float radius, bool skip_direct, const QueryBounds& reach = {});
 
 class MapGrids {
  public:

@@ -10,12 +10,11 @@ namespace spm {
 
 namespace {
 
-// Device memory of one stream slot: its state, two queue entries, its
-// associated photons' positions, and room for one iteration's worth of
+// Device memory of one stream slot: its state, two queue entries, and room for one iteration's worth of
 // surface records and eight volume records, so that flushes stay rare.
 size_t bytes_per_stream(uint32_t associated) {
-  return StreamState::bytes_per_slot() + 2 * sizeof(cl_uint) + associated * sizeof(cl_float4) +
-         associated * sizeof(SpmSurfaceRecord) + 8 * sizeof(SpmVolumeRecord);
+  return StreamState::bytes_per_slot() + 2 * sizeof(cl_uint) + associated * sizeof(SpmSurfaceRecord) +
+         8 * sizeof(SpmVolumeRecord);
 }
 
 // A batch takes `memory_budget` bytes when set, else half the device memory
@@ -52,7 +51,6 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   queue_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
   queue_next_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
   counters_buffer_ = device.buffer(sizeof(cl_uint) * SPM_COUNTERS, "the stream counters");
-  photons_ = device.buffer(sizeof(cl_float4) * capacity_ * settings_.associated, "the associated photons");
   volume_ = device.buffer(sizeof(SpmVolumeRecord) * volume_capacity_, "the volume map buffer");
   surface_ = device.buffer(sizeof(SpmSurfaceRecord) * surface_capacity_, "the surface map buffer");
   emit_ = device.kernel("spm_emit", "spm_emit");
@@ -81,9 +79,8 @@ void StreamTracer::emit(uint32_t first, uint32_t count) {
   set_args(emit_, scene_, queue_, cl_uint(count), state_, cl_uint(first), cl_uint(s.streams), cl_uint(s.associated),
            cl_uint(s.seed), cl_uint(s.pass));
   device_.launch("emit", emit_, count);
-  set_args(respawn_, queue_, cl_uint(count), state_, photons_, cl_uint(s.associated), s.width, cl_uint(s.seed),
-           cl_uint(s.pass));
-  launch_photons("respawn", respawn_);
+  set_args(respawn_, queue_, cl_uint(count), state_);
+  device_.launch("respawn", respawn_, count);
 }
 
 uint32_t StreamTracer::step() {
@@ -103,8 +100,8 @@ uint32_t StreamTracer::step() {
   launch_photons("deposit", deposit_);
   set_args(absorb_, queue_, n, state_, cl_uint(s.associated), cl_uint(s.seed), cl_uint(s.pass));
   launch_photons("absorb", absorb_);
-  set_args(respawn_, queue_, n, state_, photons_, cl_uint(s.associated), s.width, cl_uint(s.seed), cl_uint(s.pass));
-  launch_photons("respawn", respawn_);
+  set_args(respawn_, queue_, n, state_);
+  device_.launch("respawn", respawn_, n);
   const cl_uint zero = 0;
   device_.queue().enqueueWriteBuffer(counters_buffer_, CL_FALSE, sizeof(cl_uint) * SPM_COUNT_LIVE, sizeof(cl_uint),
                                      &zero);
@@ -138,9 +135,6 @@ void StreamTracer::read_counters() {
   device_.queue().enqueueReadBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
-std::vector<cl_float4> StreamTracer::photon_positions() {
-  return device_.download<cl_float4>(photons_, size_t(capacity_) * settings_.associated);
-}
 
 void StreamTracer::flush(PhotonMaps& maps) {
   read_counters();

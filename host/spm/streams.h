@@ -64,7 +64,8 @@ class StreamTracer {
   const StreamSettings& settings() const { return settings_; }
 
   // Emits streams [first, first + count) of the pass (count <= capacity) and
-  // places their associated photons in the disk around the origin.
+  // gives their associated photons offsets in the disk around the origin
+  // (respawn: the offset frame deposit draws them from).
   void emit(uint32_t first, uint32_t count);
 
   // Before step(): downloads the maps into `maps` when the coming iteration's
@@ -82,7 +83,6 @@ class StreamTracer {
   void flush(PhotonMaps& maps);
 
   // For tests: the batch's buffers as they are now.
-  std::vector<cl_float4> photon_positions();
   const StreamState& state() const { return state_; }
   const std::array<cl_uint, SPM_COUNTERS>& counters() const { return counters_; }
 
@@ -97,7 +97,7 @@ class StreamTracer {
   uint32_t live_ = 0;
   cl_uint volume_capacity_ = 0, surface_capacity_ = 0;
   StreamState state_;
-  DeviceBuffer queue_, queue_next_, counters_buffer_, photons_, volume_, surface_;
+  DeviceBuffer queue_, queue_next_, counters_buffer_, volume_, surface_;
   std::array<cl_uint, SPM_COUNTERS> counters_{};
   std::vector<uint32_t> live_log_;
   cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_, compact_;

@@ -18,7 +18,6 @@
 #define SPM_RNG_ABSORB 6u
 #define SPM_RNG_RESPAWN 7u
 #define SPM_RNG_EMIT 8u
-#define SPM_RNG_DEPOSIT 9u
 #define SPM_RNG_ROULETTE 10u
 
 typedef struct SpmRng {

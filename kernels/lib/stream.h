@@ -5,6 +5,7 @@
 #include "../spm_streams.h"
 #include "math.h"
 #include "rng.h"
+#include "sampling.h"
 
 /* Random numbers of the stream's current event (the index interact advanced
  * past: events - 1). */
@@ -18,11 +19,31 @@ inline bool photon_item(uint g, uint count, uint associated, uint* q, uint* j) {
   return *q < count;
 }
 
+/* Where the line through x + offset along d meets the plane through x
+ * normal to n (METHOD.md 1). A direction in the plane to float precision
+ * projects the offset onto the plane instead: the footprint is then
+ * unbounded, and no leader reaches a surface along its own plane. */
+inline float3 land_on_plane(float3 x, float3 n, float3 d, float3 offset) {
+  const float dn = dot(d, n), on = dot(offset, n);
+  if (fabs(dn) < 1e-6f) return x + offset - on * n;
+  return x + offset - (on / dn) * d;
+}
+
 /* Point at offset (u in the unit disk) in the plane through x normal to n. */
 inline float3 in_tangent_disk(float3 x, float3 n, float2 u, float radius) {
   float3 t, b;
   make_basis(n, &t, &b);
   return x + radius * (u.x * t + u.y * b);
+}
+
+/* Photon j's offset from the leader as spm_respawn's frame of stream `id`
+ * says: drawn with the random numbers of the event that placed it, uniform
+ * in the ball of radius w or in the disk of radius w normal to frame.xyz. */
+inline float3 stream_offset(float4 frame, uint seed, uint pass, uint id, uint j, float width) {
+  const uint bits = as_uint(frame.w);
+  const float4 u = rng4(rng_make(seed, pass, id, bits >> 1), SPM_RNG_RESPAWN, j);
+  if (bits & 1u) return width * sample_ball(u.x, u.y, u.z);
+  return in_tangent_disk((float3)(0.0f), frame.xyz, sample_disk(u.x, u.y), width);
 }
 
 #endif
