@@ -244,6 +244,25 @@ TEST(Streams, SpecularCollapseKeepsTheFluxInOnePhoton) {
     EXPECT_LT(std::abs(r.position[0]), 15 * std::tan(10 * kPi / 180) + 1e-3);
   }
   EXPECT_EQ(per_stream.size(), n_s);
+  // A collapsed stream has no offsets: its photon lands exactly at the hit.
+  const auto tables = tables_of(xml);
+  auto& dev = spm::test::device();
+  spm::GpuScene gpu(dev, tables);
+  s.max_bounces = 2;
+  s.width = 0.5f;
+  spm::StreamTracer tracer(dev, gpu, s);
+  spm::PhotonMaps maps;
+  tracer.emit(0, n_s);
+  for (int event = 0; event < 2; ++event) {  // the mirror, then the floor
+    tracer.make_room(maps);
+    tracer.step();
+  }
+  const auto hits = dev.download<cl_float4>(tracer.state().event_pos, n_s);
+  tracer.flush(maps);
+  ASSERT_EQ(maps.surface.size(), n_s);
+  for (const auto& r : maps.surface) {
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(r.position[k], hits[r.stream].s[k]) << "stream " << r.stream;
+  }
 }
 
 TEST(Streams, HenyeyGreensteinMeanCosineIsG) {
