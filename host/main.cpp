@@ -24,6 +24,7 @@
 #include "profile/profile.h"
 #include "util/text_file.h"
 #include "render/render.h"
+#include "scene/integrator_options.h"
 #include "scene/loader.h"
 #include "util/errors.h"
 
@@ -309,13 +310,13 @@ int main(int argc, char** argv) {
                      "Volume estimate: 'bre' (default), the physically based beam radiance estimate; 'paper', "
                      "eq. (4) of the paper literally, kept to reproduce its figures: it has no phase function, "
                      "transmittance or albedo and is not energy-consistent")
-      ->check(CLI::IsMember({"bre", "paper"}));
+      ->check(CLI::IsMember(spm::kEstimatorOption.names()));
   render->add_option("--kernel", r.kernel, "Density estimation kernel: uniform (default) or epanechnikov")
-      ->check(CLI::IsMember({"uniform", "epanechnikov"}));
+      ->check(CLI::IsMember(spm::kDensityKernelOption.names()));
   render->add_option("--direct", r.direct,
                      "Direct light on surfaces: 'nee' (default; shadow rays with transmittance) or 'photons' "
                      "(photon map only, the paper's look)")
-      ->check(CLI::IsMember({"nee", "photons"}));
+      ->check(CLI::IsMember(spm::kDirectOption.names()));
   render->add_flag("--profile", r.profile, "Print per-kernel device times and host stages at the end");
   render->add_option("--profile-json", r.profile_json, "Write the whole profile as JSON (schema: tools/profile.schema.json)");
   render->add_option("--trace", r.trace,

@@ -17,9 +17,6 @@
 #include "lib/lights.h"
 #include "lib/rng.h"
 
-#define SPM_DIRECT_NEE 0u
-#define SPM_DIRECT_PHOTONS 1u
-
 /* What the estimates need, bundled for the path loop. */
 typedef struct SpmMaps {
   uint direct_terms; /* 0: the photon estimates alone (a later part of the maps) */

@@ -25,6 +25,16 @@ typedef float spm_float;
 #define SPM_ERROR_SURFACE_OVERFLOW 2u /* more surface records than the buffer holds */
 #define SPM_ERROR_NONFINITE 4u        /* a NaN or infinite flux or radiance */
 
+/* Integrator options as the kernels take them; their names are in
+ * host/scene/integrator_options.h, the one table the loader, the command
+ * line and the host binding read. */
+#define SPM_KERNEL_UNIFORM 0u      /* density kernel 1 / (pi r^2) */
+#define SPM_KERNEL_EPANECHNIKOV 1u /* density kernel 2 / (pi r^2) (1 - d^2 / r^2) */
+#define SPM_ESTIMATOR_BRE 0u       /* beam radiance estimate (METHOD.md 5) */
+#define SPM_ESTIMATOR_PAPER 1u     /* the paper's eq. (4), literally */
+#define SPM_DIRECT_NEE 0u          /* direct light on surfaces by shadow rays */
+#define SPM_DIRECT_PHOTONS 1u      /* direct light from the photon map only */
+
 /* Primitive kinds (SpmPrim.kind). */
 #define SPM_PRIM_TRIANGLE 0u
 #define SPM_PRIM_SPHERE 1u

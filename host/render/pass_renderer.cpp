@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <initializer_list>
 
+#include "scene/integrator_options.h"
 #include "spm/gather.h"
 #include "spm/maps_io.h"
 #include "util/errors.h"
@@ -15,19 +15,6 @@ namespace spm {
 
 namespace {
 
-// Codes of SPM_KERNEL_*, SPM_ESTIMATOR_* (kernels/lib/estimate.h) and
-// SPM_DIRECT_* (kernels/spm_gather.cl): the position in `names`. The loader
-// and the command line accept only these names.
-cl_uint code_of(const std::string& value, std::initializer_list<const char*> names) {
-  cl_uint i = 0;
-  for (const char* n : names) {
-    if (value == n) return i;
-    ++i;
-  }
-  throw InputError("", "unknown value '" + value + "'");
-}
-
-constexpr cl_uint kDirectNee = 0;
 
 // Pixels per gather launch at most: bounds the film buffer and a launch's length.
 constexpr size_t kMaxTile = size_t(1) << 22;
@@ -112,9 +99,9 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       film_(device.buffer(sizeof(cl_float4) * tile_, "the film", CL_MEM_WRITE_ONLY)),
       tests_(device.buffer(sizeof(cl_uint) * tile_, "the gather counters", CL_MEM_WRITE_ONLY)),
       errors_(device.buffer(sizeof(cl_uint), "the gather error word")),
-      kernel_type_(code_of(scene.integrator.kernel, {"uniform", "epanechnikov"})),
-      estimator_(code_of(scene.integrator.estimator, {"bre", "paper"})),
-      direct_(code_of(scene.integrator.direct, {"nee", "photons"})) {
+      kernel_type_(kDensityKernelOption.code(scene.integrator.kernel)),
+      estimator_(kEstimatorOption.code(scene.integrator.estimator)),
+      direct_(kDirectOption.code(scene.integrator.direct)) {
   const size_t used = tracer_.bytes() + tile_ * kBytesPerPixel + sizeof(cl_uint);
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;
   host_budget_ = host_map_budget();
@@ -142,7 +129,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
   const IntegratorSettings& in = scene_.integrator;
   const RenderSettings& s = settings_;
   const size_t pixels = size_t(s.width) * s.height;
-  const bool skip_direct = direct_ == kDirectNee;
+  const bool skip_direct = direct_ == SPM_DIRECT_NEE;
   const cl_uint max_depth = in.max_depth < 0 ? SPM_NONE : cl_uint(in.max_depth);
   const size_t records = maps.volume.size() + maps.surface.size();
   std::vector<float> rgb(pixels * 3, 0.0f);

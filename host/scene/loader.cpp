@@ -7,6 +7,7 @@
 #include <iostream>
 #include <utility>
 
+#include "scene/integrator_options.h"
 #include "scene/light_power.h"
 #include "scene/media_regions.h"
 #include "scene/obj.h"
@@ -701,20 +702,15 @@ class Loader {
     checked_float("width", s.width, true);
     checked_float("march_step", s.march_step, false);
     checked_float("time", s.time, false);
-    if (std::optional<std::string> e = p.get_string("estimator")) {
-      if (*e != "bre" && *e != "paper") p.fail("estimator", "unknown estimator '" + *e + "' (bre, paper)");
-      s.estimator = *e;
-    }
-    if (std::optional<std::string> k = p.get_string("kernel")) {
-      if (*k != "uniform" && *k != "epanechnikov") {
-        p.fail("kernel", "unknown kernel '" + *k + "' (uniform, epanechnikov)");
+    const auto option = [&](const IntegratorOption& o, std::string& field) {
+      if (std::optional<std::string> v = p.get_string(o.property)) {
+        if (!o.has(*v)) p.fail(o.property, "unknown " + std::string(o.what) + " '" + *v + "' (" + o.listed() + ")");
+        field = *v;
       }
-      s.kernel = *k;
-    }
-    if (std::optional<std::string> d = p.get_string("direct")) {
-      if (*d != "nee" && *d != "photons") p.fail("direct", "unknown direct lighting '" + *d + "' (nee, photons)");
-      s.direct = *d;
-    }
+    };
+    option(kEstimatorOption, s.estimator);
+    option(kDensityKernelOption, s.kernel);
+    option(kDirectOption, s.direct);
     if (std::optional<float> a = p.get_float("alpha")) {
       if (!(*a > 0.0f && *a < 1.0f)) p.fail("alpha", "alpha must be in (0, 1)");
       s.alpha = *a;

@@ -7,12 +7,6 @@
 #include "grid.h"
 #include "phase.h"
 
-#define SPM_KERNEL_UNIFORM 0u
-#define SPM_KERNEL_EPANECHNIKOV 1u
-
-#define SPM_ESTIMATOR_BRE 0u
-#define SPM_ESTIMATOR_PAPER 1u
-
 /* A surface record counts if it lies within this fraction of r of the query's
  * tangent plane: the disk of METHOD.md 5, given the thickness a curved surface
  * or a corner needs and no more. */
