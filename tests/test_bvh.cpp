@@ -139,7 +139,8 @@ TEST(Bvh, KernelClosestHitsEqualBruteForce) {
   const cl::Buffer ob = dev.upload(origins), db = dev.upload(dirs);
   cl::Buffer hb(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_trace", "spm_trace");
-  spm::set_args(k, gpu, ob, db, hb, cl_uint(n));
+  spm::set_args(k, gpu, spm::arg("origins", ob), spm::arg("directions", db), spm::arg("hits", hb),
+                spm::arg("count", cl_uint(n)));
   dev.launch("trace", k, n);
   const auto hits = dev.download<cl_float4>(hb, n);
 

@@ -77,6 +77,15 @@ SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& rec
           dev.upload(spm::surface_item_positions(grid, records)), dev.upload(spm::surface_item_flux(grid, records))};
 }
 
+// spm_surface_test's arguments, by name.
+void set_surface_test_args(cl::Kernel& k, const SurfaceBuffers& up, const cl::Buffer& points, const cl::Buffer& normals,
+                           const cl::Buffer& out, int n, float radius, int kernel, uint32_t max_depth) {
+  spm::set_args(k, spm::arg("info", up.info), spm::arg("cell_start", up.start), spm::arg("item_pos", up.pos),
+                spm::arg("item_flux", up.flux), spm::arg("points", points), spm::arg("normals", normals),
+                spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("radius", radius),
+                spm::arg("kernel_type", cl_uint(kernel)), spm::arg("max_rec_depth", cl_uint(max_depth)));
+}
+
 class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int, uint32_t>> {};
 
 TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
@@ -120,8 +129,11 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   const cl::Buffer ob = dev.upload(origins), db = dev.upload(dirs);
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
-  spm::set_args(k, u.info, u.start, u.pos, u.items, u.records, media, ob, db, out, cl_uint(n), cl_int(0), radius,
-                cl_uint(kernel), cl_uint(estimator), cl_uint(max_depth));
+  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
+                spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
+                spm::arg("origins", ob), spm::arg("directions", db), spm::arg("out", out), spm::arg("count", cl_uint(n)),
+                spm::arg("medium", cl_int(0)), spm::arg("radius", radius), spm::arg("kernel_type", cl_uint(kernel)),
+                spm::arg("estimator", cl_uint(estimator)), spm::arg("max_rec_depth", cl_uint(max_depth)));
   dev.launch("beam_test", k, n);
   const auto got = dev.download<cl_float4>(out, n);
   int nonzero = 0;
@@ -192,8 +204,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
         const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(used, radius)
                                                                : spm::build_point_grid(centres, cell * radius);
         const SurfaceBuffers up = upload(dev, used, grid);
-        spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(kernel),
-                      cl_uint(max_depth));
+        set_surface_test_args(k, up, pb, nb, out, n, radius, kernel, max_depth);
         dev.launch("surface_test", k, n);
         const auto got = dev.download<cl_float4>(out, n);
         for (int i = 0; i < n; ++i) {
@@ -261,7 +272,7 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
-  spm::set_args(k, up.info, up.start, up.pos, up.flux, pb, nb, out, cl_uint(n), radius, cl_uint(0), cl_uint(SPM_NONE));
+  set_surface_test_args(k, up, pb, nb, out, n, radius, 0, SPM_NONE);
   dev.launch("surface_test", k, n);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<double> estimates;

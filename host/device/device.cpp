@@ -1,5 +1,7 @@
 #include "device/device.h"
 
+#include <cstring>
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -65,7 +67,8 @@ std::string model_key(const DeviceInfo& info) {
          info.device.getInfo<CL_DRIVER_VERSION>() + '\n';
 }
 
-const char* const kBuildOptions = "-cl-std=CL1.2";
+// -cl-kernel-arg-info keeps every argument's name for check_arg_name.
+const char* const kBuildOptions = "-cl-std=CL1.2 -cl-kernel-arg-info";
 
 }  // namespace
 
@@ -248,6 +251,23 @@ class Lease {
 };
 
 }  // namespace
+
+void check_arg_name(const cl::Kernel& kernel, cl_uint index, const char* name) {
+  size_t size = 0;
+  cl_int err = clGetKernelArgInfo(kernel(), index, CL_KERNEL_ARG_NAME, 0, nullptr, &size);
+  if (err == CL_KERNEL_ARG_INFO_NOT_AVAILABLE) return;
+  if (err != CL_SUCCESS) throw cl::Error(err, "clGetKernelArgInfo");
+  std::string actual(size, '\0');
+  err = clGetKernelArgInfo(kernel(), index, CL_KERNEL_ARG_NAME, size, actual.data(), nullptr);
+  if (err != CL_SUCCESS) throw cl::Error(err, "clGetKernelArgInfo");
+  actual.resize(std::strlen(actual.c_str()));
+  if (actual != name) {
+    std::string function = kernel.getInfo<CL_KERNEL_FUNCTION_NAME>();
+    function.resize(std::strlen(function.c_str()));
+    throw RuntimeError("kernel " + function + ": argument " + std::to_string(index) + " is '" + actual +
+                       "' in the kernel but the host binds '" + name + "' there");
+  }
+}
 
 void Device::set_memory_budget(size_t bytes) { budget_ = bytes ? bytes : size_t(info_.global_memory); }
 

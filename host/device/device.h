@@ -14,6 +14,8 @@
 #include <utility>
 #include <vector>
 
+#include "util/errors.h"
+
 namespace spm {
 
 struct DeviceInfo {
@@ -153,8 +155,35 @@ class Device {
   std::shared_ptr<std::atomic<size_t>> live_ = std::make_shared<std::atomic<size_t>>(0);
 };
 
+// Throws RuntimeError unless argument `index` of `kernel` is called `name`
+// in its OpenCL source: programs are built with -cl-kernel-arg-info, so
+// that an argument bound to the wrong position (two of the same type
+// swapped, say) fails the launch instead of running. A driver without the
+// names (CL_KERNEL_ARG_INFO_NOT_AVAILABLE) is not checked.
+void check_arg_name(const cl::Kernel& kernel, cl_uint index, const char* name);
+
+// A kernel argument with the name its kernel gives it.
+template <class T>
+struct NamedArg {
+  const char* name;
+  const T& value;
+};
+
+template <class T>
+NamedArg<T> arg(const char* name, const T& value) {
+  return {name, value};
+}
+
+// Binds one named argument, checking its name (check_arg_name).
+template <class T>
+void bind_arg(cl::Kernel& kernel, cl_uint index, const char* name, const T& value) {
+  check_arg_name(kernel, index, name);
+  kernel.setArg(index, value);
+}
+
 // An argument group (such as GpuScene) binds several consecutive arguments
-// itself through `cl_uint bind(cl::Kernel&, cl_uint first) const`.
+// itself, each with its name, through `cl_uint bind(cl::Kernel&, cl_uint
+// first) const`.
 template <class T, class = void>
 struct binds_arguments : std::false_type {};
 template <class T>
@@ -162,20 +191,28 @@ struct binds_arguments<T, std::void_t<decltype(std::declval<const T&>().bind(std
     : std::true_type {};
 
 template <class T>
-cl_uint set_arg(cl::Kernel& kernel, cl_uint index, const T& value) {
-  if constexpr (binds_arguments<T>::value) {
-    return value.bind(kernel, index);
-  } else {
-    kernel.setArg(index, value);
-    return index + 1;
-  }
+cl_uint set_arg(cl::Kernel& kernel, cl_uint index, const NamedArg<T>& a) {
+  bind_arg(kernel, index, a.name, a.value);
+  return index + 1;
 }
 
-// Sets every argument of `kernel` in order, so that no call site counts indices.
+template <class T>
+cl_uint set_arg(cl::Kernel& kernel, cl_uint index, const T& group) {
+  static_assert(binds_arguments<T>::value, "name each kernel argument: arg(\"name\", value)");
+  return group.bind(kernel, index);
+}
+
+// Sets every argument of `kernel` in order, so that no call site counts
+// indices, and checks every name against the kernel's.
 template <class... Args>
 void set_args(cl::Kernel& kernel, const Args&... args) {
   cl_uint index = 0;
   ((index = set_arg(kernel, index, args)), ...);
+  const cl_uint expected = kernel.getInfo<CL_KERNEL_NUM_ARGS>();
+  if (index != expected) {
+    throw RuntimeError("kernel " + kernel.getInfo<CL_KERNEL_FUNCTION_NAME>() + " takes " + std::to_string(expected) +
+                       " arguments, the host bound " + std::to_string(index));
+  }
 }
 
 // "call: CL_ERROR_NAME" for an exception thrown by the OpenCL C++ bindings.

@@ -168,9 +168,12 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
     t = stages.now();
     for (size_t first = 0; first < pixels; first += tile_) {
       const size_t count = std::min(tile_, pixels - first);
-      set_args(gather_, gpu_, gpu_.camera(), film_, tests_, errors_, cl_uint(first), cl_uint(count), cl_uint(s.spp),
-               max_depth, cl_uint(direct_terms && k == 0), cl_uint(s.seed), cl_uint(pass), radius, kernel_type_,
-               estimator_, direct_, grids);
+      set_args(gather_, gpu_, arg("camera", gpu_.camera()), arg("film", film_), arg("tests_out", tests_),
+               arg("errors", errors_), arg("first_pixel", cl_uint(first)), arg("count", cl_uint(count)),
+               arg("spp", cl_uint(s.spp)), arg("max_depth", max_depth),
+               arg("direct_terms", cl_uint(direct_terms && k == 0)), arg("seed", cl_uint(s.seed)),
+               arg("pass", cl_uint(pass)), arg("radius", radius), arg("kernel_type", kernel_type_),
+               arg("estimator", estimator_), arg("direct", direct_), grids);
       device_.launch("gather", gather_, count);
       const auto film = device_.download<cl_float4>(film_, count);
       for (size_t i = 0; i < count; ++i) {

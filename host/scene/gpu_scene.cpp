@@ -209,12 +209,14 @@ GpuScene::GpuScene(Device& device, const SceneTables& t)
 }
 
 cl_uint GpuScene::bind(cl::Kernel& k, cl_uint i) const {
-  for (const cl::Buffer* b : {&nodes_, &prims_, &normals_, &shapes_, &materials_, &media_, &lights_, &light_prims_,
-                              &light_cdf_}) {
-    k.setArg(i++, *b);
-  }
-  k.setArg(i++, num_prims_);
-  k.setArg(i++, num_lights_);
+  // The names of SPM_SCENE_PARAMS (kernels/lib/scene.h).
+  const std::pair<const char*, const cl::Buffer*> tables[] = {
+      {"scene_nodes", &nodes_},         {"scene_prims", &prims_},   {"scene_normals", &normals_},
+      {"scene_shapes", &shapes_},       {"scene_materials", &materials_}, {"scene_media", &media_},
+      {"scene_lights", &lights_},       {"scene_light_prims", &light_prims_}, {"scene_light_cdf", &light_cdf_}};
+  for (const auto& [name, buffer] : tables) bind_arg(k, i++, name, *buffer);
+  bind_arg(k, i++, "scene_num_prims", num_prims_);
+  bind_arg(k, i++, "scene_num_lights", num_lights_);
   return i;
 }
 

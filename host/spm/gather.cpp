@@ -119,10 +119,12 @@ MapGrids::MapGrids(Device& device, const MapGridData& d) {
 }
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
-  for (const cl::Buffer* b : {&volume_info_, &volume_start_, &volume_pos_, &volume_items_, &volume_, &surface_info_,
-                              &surface_start_, &surface_pos_, &surface_flux_}) {
-    k.setArg(i++, *b);
-  }
+  // The names of spm_gather's map arguments (kernels/spm_gather.cl).
+  const std::pair<const char*, const cl::Buffer*> buffers[] = {
+      {"volume_info", &volume_info_},   {"volume_start", &volume_start_},   {"volume_pos", &volume_pos_},
+      {"volume_items", &volume_items_}, {"volume", &volume_},               {"surface_info", &surface_info_},
+      {"surface_start", &surface_start_}, {"surface_pos", &surface_pos_},   {"surface_flux", &surface_flux_}};
+  for (const auto& [name, buffer] : buffers) bind_arg(k, i++, name, *buffer);
   return i;
 }
 

@@ -28,7 +28,7 @@ struct StreamState {
   }
 
   cl_uint bind(cl::Kernel& kernel, cl_uint index) const {
-#define SPM_STREAM_BIND(type, name) kernel.setArg(index++, name);
+#define SPM_STREAM_BIND(type, name) bind_arg(kernel, index++, "st_" #name, name);
     SPM_STREAM_STATE(SPM_STREAM_BIND)
 #undef SPM_STREAM_BIND
     return index;

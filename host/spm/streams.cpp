@@ -76,10 +76,11 @@ void StreamTracer::emit(uint32_t first, uint32_t count) {
   if (count == 0 || count > capacity_) throw RuntimeError("emit: batch of " + std::to_string(count) + " streams");
   const StreamSettings& s = settings_;
   live_ = count;
-  set_args(emit_, scene_, queue_, cl_uint(count), state_, cl_uint(first), cl_uint(s.streams), cl_uint(s.associated),
-           cl_uint(s.seed), cl_uint(s.pass));
+  set_args(emit_, scene_, arg("queue", queue_), arg("count", cl_uint(count)), state_, arg("first_stream", cl_uint(first)),
+           arg("pass_streams", cl_uint(s.streams)), arg("associated", cl_uint(s.associated)),
+           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
   device_.launch("emit", emit_, count);
-  set_args(respawn_, queue_, cl_uint(count), state_);
+  set_args(respawn_, arg("queue", queue_), arg("count", cl_uint(count)), state_);
   device_.launch("respawn", respawn_, count);
 }
 
@@ -90,22 +91,29 @@ uint32_t StreamTracer::step() {
   live_log_.push_back(n);
   // The loop of METHOD.md 3 over the live queue. Interact appends at most one
   // volume record and n <= N_a surface records per stream; flush() made room.
-  set_args(march_, scene_, queue_, n, state_, s.march_step, cl_uint(s.seed), cl_uint(s.pass));
+  set_args(march_, scene_, arg("queue", queue_), arg("count", n), state_, arg("march_step", s.march_step),
+           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
   device_.launch("march", march_, n);
-  set_args(interact_, scene_, queue_, n, state_, volume_, volume_capacity_, surface_capacity_, counters_buffer_,
-           cl_uint(s.max_bounces), cl_uint(s.max_depth), cl_uint(s.rr_depth), cl_uint(s.seed), cl_uint(s.pass));
+  set_args(interact_, scene_, arg("queue", queue_), arg("count", n), state_, arg("volume", volume_),
+           arg("volume_capacity", volume_capacity_), arg("surface_capacity", surface_capacity_),
+           arg("counters", counters_buffer_), arg("max_bounces", cl_uint(s.max_bounces)),
+           arg("max_depth", cl_uint(s.max_depth)), arg("rr_depth", cl_uint(s.rr_depth)), arg("seed", cl_uint(s.seed)),
+           arg("pass", cl_uint(s.pass)));
   device_.launch("interact", interact_, n);
-  set_args(deposit_, queue_, n, state_, cl_uint(s.associated), s.width, surface_, surface_capacity_, cl_uint(s.seed),
-           cl_uint(s.pass));
+  set_args(deposit_, arg("queue", queue_), arg("count", n), state_, arg("associated", cl_uint(s.associated)),
+           arg("width", s.width), arg("surface", surface_), arg("surface_capacity", surface_capacity_),
+           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
   launch_photons("deposit", deposit_);
-  set_args(absorb_, queue_, n, state_, cl_uint(s.associated), cl_uint(s.seed), cl_uint(s.pass));
+  set_args(absorb_, arg("queue", queue_), arg("count", n), state_, arg("associated", cl_uint(s.associated)),
+           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
   launch_photons("absorb", absorb_);
-  set_args(respawn_, queue_, n, state_);
+  set_args(respawn_, arg("queue", queue_), arg("count", n), state_);
   device_.launch("respawn", respawn_, n);
   const cl_uint zero = 0;
   device_.queue().enqueueWriteBuffer(counters_buffer_, CL_FALSE, sizeof(cl_uint) * SPM_COUNT_LIVE, sizeof(cl_uint),
                                      &zero);
-  set_args(compact_, queue_, n, state_, queue_next_, counters_buffer_);
+  set_args(compact_, arg("queue", queue_), arg("count", n), state_, arg("queue_next", queue_next_),
+           arg("counters", counters_buffer_));
   device_.launch("compact", compact_, n);
   std::swap(queue_, queue_next_);
   read_counters();
