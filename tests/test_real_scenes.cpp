@@ -216,6 +216,25 @@ spm::Scene scaled(spm::Scene s, float k) {
   return s;
 }
 
+TEST(ScaleFree, AGivenRadiusIsTheWidthTooWhenNoWidthIsGiven) {
+  spm::Scene scene = spm::load_scene(kFogBox);
+  scene.integrator.radius = 0.2f;
+  auto& dev = spm::test::device();
+  const spm::Scene d = spm::derive_scale(scene, dev, 1);
+  EXPECT_FLOAT_EQ(d.integrator.radius, 0.2f);
+  EXPECT_FLOAT_EQ(d.integrator.width, 0.2f);
+  EXPECT_FALSE(d.integrator.radius_derived);
+  // And the render uses it (the settings it announces).
+  spm::RenderSettings s;
+  s.passes = 1;
+  s.spp = 1;
+  s.width = s.height = 8;
+  float width = -1.0f;
+  s.announce = [&](const spm::RenderUsed& u) { width = u.width; };
+  spm::render(scene, s, dev);
+  EXPECT_FLOAT_EQ(width, 0.2f);
+}
+
 TEST(ScaleFree, DefaultsDeriveTheSameRadiusAtAnyScale) {
   const spm::Scene scene = spm::load_scene(kFogBox);
   auto& dev = spm::test::device();

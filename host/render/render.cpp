@@ -144,8 +144,10 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   // Derived radius and width (defaults.h); a timed render always runs the
   // pilot, whose propagation time sizes its passes.
   ScalePilot pilot;
-  Scene scene = scene_in;
-  if (scene.integrator.radius <= 0.0f || timed) {
+  // A given radius needs no pilot; derive_scale then only gives a missing
+  // width the radius.
+  Scene scene = scene_in.integrator.radius > 0.0f ? derive_scale(scene_in, *devices[0], s.seed) : scene_in;
+  if (scene_in.integrator.radius <= 0.0f || timed) {
     const double start = profiler ? profiler->now() : 0.0;
     Scene probe = scene_in;
     probe.integrator.radius = 0.0f;
