@@ -278,6 +278,19 @@ TEST(Streams, HenyeyGreensteinMeanCosineIsG) {
   }
 }
 
+// One wavefront iteration whose records go to `maps`, and where each
+// stream's event happened and the direction it arrived in.
+struct Events {
+  std::vector<cl_float4> hits, dirs;
+};
+Events step_and_flush(spm::StreamTracer& tracer, spm::Device& dev, spm::PhotonMaps& maps, uint32_t n_s) {
+  tracer.make_room(maps);
+  tracer.step();
+  Events e{dev.download<cl_float4>(tracer.state().event_pos, n_s), dev.download<cl_float4>(tracer.state().event_dir, n_s)};
+  tracer.flush(maps);
+  return e;
+}
+
 // Squeezes a landing `off` (from the hit, in the floor y = 0) by |cos theta|
 // along the in-plane direction of travel d: the radius and angle of the
 // point of the stream's cross-section it came from, in units of w.
@@ -312,16 +325,12 @@ TEST(Streams, OffsetsAfterAMediumEventFillTheBall) {
   tracer.flush(first);
   std::set<uint32_t> scattered;  // streams whose first event was in the fog
   for (const auto& r : first.volume) scattered.insert(r.stream);
-  tracer.make_room(second);
-  tracer.step();
-  const auto hits = dev.download<cl_float4>(tracer.state().event_pos, n_s);
-  const auto dirs = dev.download<cl_float4>(tracer.state().event_dir, n_s);
-  tracer.flush(second);
+  const Events e = step_and_flush(tracer, dev, second, n_s);
   std::vector<double> radii, angles;
   for (const auto& r : second.surface) {
     if (!scattered.count(r.stream)) continue;
-    const glm::dvec3 x(hits[r.stream].s[0], hits[r.stream].s[1], hits[r.stream].s[2]);
-    const glm::dvec3 d(dirs[r.stream].s[0], dirs[r.stream].s[1], dirs[r.stream].s[2]);
+    const glm::dvec3 x = v3(e.hits[r.stream].s);
+    const glm::dvec3 d = v3(e.dirs[r.stream].s);
     if (std::abs(d.y) < 0.05) continue;  // grazing: the footprint runs far, float error grows
     const auto [radius, angle] = unsqueezed(v3(r.position) - x, d, s.width);
     radii.push_back(radius);
@@ -356,16 +365,12 @@ TEST(Streams, DepositsAreTheStreamsCrossSectionOnTheSurface) {
   spm::PhotonMaps maps;
   tracer.emit(0, n_s);
   const auto phi0 = dev.download<cl_float4>(tracer.state().phi, n_s);
-  tracer.make_room(maps);
-  tracer.step();
-  const auto hits = dev.download<cl_float4>(tracer.state().event_pos, n_s);
-  const auto dirs = dev.download<cl_float4>(tracer.state().event_dir, n_s);
-  tracer.flush(maps);
+  const Events e = step_and_flush(tracer, dev, maps, n_s);
   std::vector<double> radii, angles;
   std::map<uint32_t, double> flux;
   for (const auto& r : maps.surface) {
-    const glm::dvec3 x(hits[r.stream].s[0], hits[r.stream].s[1], hits[r.stream].s[2]);
-    const glm::dvec3 d(dirs[r.stream].s[0], dirs[r.stream].s[1], dirs[r.stream].s[2]);
+    const glm::dvec3 x = v3(e.hits[r.stream].s);
+    const glm::dvec3 d = v3(e.dirs[r.stream].s);
     const glm::dvec3 off = v3(r.position) - x;
     ASSERT_NEAR(off.y, 0.0, 1e-4 * (1.0 + glm::length(off)));  // in the tangent plane
     const auto [radius, angle] = unsqueezed(off, d, s.width);
@@ -397,13 +402,10 @@ TEST(Streams, AnAreaLightsDiskLandsWholeOnAParallelFloor) {
   spm::StreamTracer tracer(dev, gpu, s);
   spm::PhotonMaps maps;
   tracer.emit(0, n_s);
-  tracer.make_room(maps);
-  tracer.step();
-  const auto hits = dev.download<cl_float4>(tracer.state().event_pos, n_s);
-  tracer.flush(maps);
+  const Events e = step_and_flush(tracer, dev, maps, n_s);
   std::vector<double> radii;
   for (const auto& r : maps.surface) {
-    const glm::dvec3 off = v3(r.position) - glm::dvec3(hits[r.stream].s[0], hits[r.stream].s[1], hits[r.stream].s[2]);
+    const glm::dvec3 off = v3(r.position) - v3(e.hits[r.stream].s);
     ASSERT_NEAR(off.y, 0.0, 1e-5);
     radii.push_back(std::hypot(off.x, off.z) / s.width);
   }
