@@ -1,8 +1,8 @@
 /* spm_emit: starts a batch of streams (METHOD.md 2).
- * From: nothing. To: queue (every stream live), state SPM_ACT_DISK so that
- * respawn gives the associated photons offsets in the disk of radius w
- * around the origin, in the light's plane (across the direction for point
- * and spot lights).
+ * From: nothing. To: the respawn queue, every stream with its N_a photons
+ * alive and event SPM_EV_EMIT, so that respawn gives them offsets in the
+ * disk of radius w around the origin, in the light's plane (across the
+ * direction for point and spot lights). The host sets the queue's size.
  *
  * A light is picked with probability proportional to its power; the leader
  * starts uniformly on it, cosine-weighted about the normal (area), uniform
@@ -12,13 +12,13 @@
 #include "lib/lights.h"
 #include "lib/stream.h"
 
-__kernel void spm_emit(SPM_SCENE_PARAMS, __global uint* queue, uint count SPM_STREAM_PARAMS, uint first_stream,
-                       uint pass_streams, uint associated, uint seed, uint pass) {
+__kernel void spm_emit(SPM_SCENE_PARAMS, SpmStreamParams params, __global uint* respawn_queue, uint count,
+                       uint first_stream SPM_STREAM_PARAMS) {
   const uint slot = get_global_id(0);
   if (slot >= count) return;
   const SpmScene sc = SPM_SCENE;
   const uint id = first_stream + slot;
-  const SpmRng rng = rng_make(seed, pass, id, 0);
+  const SpmRng rng = rng_make(params.seed, params.pass, id, 0);
   const float4 u0 = rng4(rng, SPM_RNG_EMIT, 0);
   const float4 u1 = rng4(rng, SPM_RNG_EMIT, 1);
   float prob;
@@ -44,20 +44,19 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, __global uint* queue, uint count SPM_ST
   }
   st_origin[slot] = (float4)(p, 0.0f);
   st_direction[slot] = (float4)(d, 0.0f);
-  const float3 phi = power / (prob * (float)pass_streams * (float)associated);
+  const float3 phi = power / (prob * (float)params.pass_streams * (float)params.associated);
   st_phi[slot] = (float4)(phi, 0.0f);
-  st_flux0[slot] = (float)associated * max_comp(phi);
-  st_event_pos[slot] = (float4)(p, 0.0f);
+  st_flux0[slot] = (float)params.associated * max_comp(phi);
   st_event_normal[slot] = (float4)(n, 0.0f);
-  st_alive[slot] = associated;
-  st_alive_next[slot] = associated;
+  st_alive_next[slot] = params.associated;
   st_medium[slot] = l->medium;
   st_bounces[slot] = 0;
   st_events[slot] = 1; /* event 0 was the emission */
   st_depth[slot] = 0;
   st_medium_events[slot] = 0;
-  st_state[slot] = SPM_ACT_DISK;
+  st_event[slot] = SPM_EV_EMIT;
+  st_end[slot] = SPM_END_NONE;
   st_flags[slot] = 0;
   st_id[slot] = id;
-  queue[slot] = slot;
+  respawn_queue[slot] = slot;
 }

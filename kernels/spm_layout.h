@@ -19,6 +19,7 @@
   S(SpmCamera, 96)            \
   S(SpmVolumeRecord, 48)      \
   S(SpmSurfaceRecord, 64)     \
+  S(SpmStreamParams, 48)      \
   S(SpmGridInfo, 32)
 
 /* F(struct, field) */
@@ -45,6 +46,10 @@
   F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
   F(SpmSurfaceRecord, depth_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
   F(SpmSurfaceRecord, normal)                                                                   \
+  F(SpmStreamParams, seed) F(SpmStreamParams, pass) F(SpmStreamParams, pass_streams)           \
+  F(SpmStreamParams, associated) F(SpmStreamParams, stream_width) F(SpmStreamParams, march_step) \
+  F(SpmStreamParams, max_bounces) F(SpmStreamParams, max_depth) F(SpmStreamParams, rr_depth)     \
+  F(SpmStreamParams, volume_capacity) F(SpmStreamParams, surface_capacity)                       \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

@@ -1,6 +1,7 @@
 /* spm_march: the leader to its next event (METHOD.md 3, paper 3.1 step 1).
- * From: queue of live streams. To: state SPM_EV_MEDIUM, SPM_EV_SURFACE or
- * SPM_EV_ESCAPE, with the event distance and surface hit in `hit`.
+ * From: the live queue. To: the live queue for interact, with the event
+ * (SPM_EV_MEDIUM, SPM_EV_SURFACE or SPM_EV_ESCAPE), its distance and the
+ * surface hit in `hit`.
  *
  * Inside a medium the ray is walked in steps of length march_step, each
  * interacting with probability P = 1 - exp(-sigma_t step), the event placed by
@@ -28,27 +29,28 @@ inline float free_flight(float sigma, float tmax, float step, SpmRng rng) {
   return SPM_INF;
 }
 
-__kernel void spm_march(SPM_SCENE_PARAMS, const __global uint* queue, uint count SPM_STREAM_PARAMS, float march_step,
-                        uint seed, uint pass) {
+__kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global uint* live,
+                        const __global uint* counts SPM_STREAM_PARAMS) {
   const uint q = get_global_id(0);
-  if (q >= count) return;
-  const uint s = queue[q];
+  if (q >= counts[SPM_COUNT_LIVE]) return;
+  const uint s = live[q];
   const SpmScene sc = SPM_SCENE;
   const float3 o = st_origin[s].xyz;
   const float3 d = st_direction[s].xyz;
   SpmHit h;
   const bool surface = scene_trace(&sc, o, d, SPM_INF, &h);
-  uint state = surface ? SPM_EV_SURFACE : SPM_EV_ESCAPE;
+  uint event = surface ? SPM_EV_SURFACE : SPM_EV_ESCAPE;
   float t = h.t;
   const int m = st_medium[s];
   if (m >= 0) {
     const float3 sigma = load3(sc.media[m].sigma_t);
     const float mean = mean_comp(sigma);
     float3 weight = (float3)(1.0f);
-    const float te = mean > 0.0f ? free_flight(mean, h.t, march_step, rng_make(seed, pass, st_id[s], st_events[s]))
+    const float te = mean > 0.0f ? free_flight(mean, h.t, params.march_step,
+                                                   rng_make(params.seed, params.pass, st_id[s], st_events[s]))
                                  : SPM_INF;
     if (te < h.t) {
-      state = SPM_EV_MEDIUM;
+      event = SPM_EV_MEDIUM;
       t = te;
       weight = sigma / mean * exp(-(sigma - mean) * te);
     } else if (surface) {
@@ -57,5 +59,5 @@ __kernel void spm_march(SPM_SCENE_PARAMS, const __global uint* queue, uint count
     st_phi[s] *= (float4)(weight, 1.0f);
   }
   st_hit[s] = (float4)(t, as_float(h.prim), h.u, h.v);
-  st_state[s] = state;
+  st_event[s] = event;
 }

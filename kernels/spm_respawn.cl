@@ -1,7 +1,7 @@
 /* spm_respawn: the associated photons' offsets from the leader (METHOD.md
- * 1 and 3; paper 3.1 step 3). From: streams with SPM_ACT_SPHERE or
- * SPM_ACT_DISK. To: the stream's offset frame, which the next diffuse
- * event's deposit lands on its tangent plane.
+ * 1 and 3; paper 3.1 step 3). From: the respawn queue (streams after emit
+ * or absorb). To: the next iteration's live queue with the survivors, or
+ * the end (SPM_END_ABSORBED) when none survived.
  * After a medium event each surviving associated photon j gets an offset
  * uniform in the sphere of radius w; after emission and diffuse events,
  * uniform in the disk of radius w in the light's (or surface's) plane. The
@@ -15,12 +15,20 @@
 #include "spm_types.h"
 #include "lib/stream.h"
 
-__kernel void spm_respawn(const __global uint* queue, uint count SPM_STREAM_PARAMS) {
+__kernel void spm_respawn(const __global uint* respawn_queue, __global uint* live_next, __global uint* counts
+                              SPM_STREAM_PARAMS) {
   const uint q = get_global_id(0);
-  if (q >= count) return;
-  const uint s = queue[q];
-  const uint act = st_state[s];
-  if (!(act & (SPM_ACT_SPHERE | SPM_ACT_DISK)) || (st_flags[s] & SPM_STREAM_COLLAPSED)) return;
-  const uint ball = (act & SPM_ACT_SPHERE) ? 1u : 0u;
-  st_offsets[s] = (float4)(st_event_normal[s].xyz, as_float(((st_events[s] - 1u) << 1) | ball));
+  if (q >= counts[SPM_COUNT_RESPAWN]) return;
+  const uint s = respawn_queue[q];
+  const uint n = st_alive_next[s];
+  st_alive[s] = n;
+  if (n == 0) {
+    st_end[s] = SPM_END_ABSORBED;
+    return;
+  }
+  if (!(st_flags[s] & SPM_STREAM_COLLAPSED)) {
+    const uint ball = st_event[s] == SPM_EV_MEDIUM ? 1u : 0u;
+    st_offsets[s] = (float4)(st_event_normal[s].xyz, as_float(((st_events[s] - 1u) << 1) | ball));
+  }
+  push_stream(live_next, counts, SPM_COUNT_LIVE_NEXT, s);
 }

@@ -1,7 +1,6 @@
 /* Stream state (METHOD.md 1 and 3), structure of arrays, listed ONCE: the
- * kernels take it as SPM_STREAM_PARAMS (right after the queue and its count:
- * `queue, count SPM_STREAM_PARAMS`) and the host allocates and binds it from
- * the same list (host/spm/stream_state.h), so they cannot disagree.
+ * kernels take it as SPM_STREAM_PARAMS and the host allocates and binds it
+ * from the same list (host/spm/stream_state.h), so they cannot disagree.
  * X(type, name): one buffer of `type` per stream slot of a batch. */
 #ifndef SPM_STREAMS_H
 #define SPM_STREAMS_H
@@ -24,44 +23,67 @@
   X(uint, depth)          /* path vertices so far, as Mitsuba counts them (METHOD.md 10) */    \
   X(float, flux0)         /* max over RGB of the emitted stream flux N_a phi (roulette) */     \
   X(uint, medium_events)  /* medium interactions so far (safety cap) */                        \
-  X(uint, state)          /* march: SPM_EV_*; interact onwards: SPM_ACT_* bits */              \
+  X(uint, event)          /* march: SPM_EV_* of the leader's next event; emit: SPM_EV_EMIT */  \
+  X(uint, end)            /* SPM_END_*: why the stream ended; SPM_END_NONE while it lives */   \
   X(uint, flags)          /* SPM_STREAM_HAD_EVENT, SPM_STREAM_COLLAPSED */                     \
-  X(uint, record_base)    /* first surface-map slot of this event's deposit */                 \
+  X(uint, record_base)    /* interact: first surface-map slot of this event's deposit */       \
+  X(uint, absorb_base)    /* interact: first entry of the stream's photons in the absorb list */ \
   X(uint, id)             /* stream id within the pass: the RNG counter */
 
-/* march outcomes */
+/* Events (st_event): march's outcomes, and emission for respawn. */
 #define SPM_EV_MEDIUM 1u
 #define SPM_EV_SURFACE 2u
 #define SPM_EV_ESCAPE 3u
+#define SPM_EV_EMIT 4u
 
-/* What the per-photon kernels do after interact (bits). */
-#define SPM_ACT_DEPOSIT 1u /* deposit: one surface record per alive photon */
-#define SPM_ACT_ABSORB 2u  /* absorb: each photon survives with probability scale.w */
-#define SPM_ACT_SPHERE 4u  /* respawn: survivors uniform in the sphere of radius w */
-#define SPM_ACT_DISK 8u    /* respawn: survivors uniform in the disk of radius w */
-#define SPM_ACT_END 16u    /* the stream ends after this event */
+/* Why a stream ended (st_end); the kernel that ends it writes it. */
+#define SPM_END_NONE 0u
+#define SPM_END_ESCAPED 1u   /* interact: march found no surface and no medium event */
+#define SPM_END_BLACK 2u     /* interact: the black back of a one-sided surface, or a black mirror */
+#define SPM_END_DEPTH 3u     /* interact: no later vertex counts within max_depth */
+#define SPM_END_ROULETTE 4u  /* interact: Russian roulette (METHOD.md 10) */
+#define SPM_END_BOUNCES 5u   /* interact: the max_bounces-th diffuse event, after its deposit */
+#define SPM_END_CAPPED 6u    /* interact: SPM_MAX_MEDIUM_EVENTS or SPM_MAX_EVENTS */
+#define SPM_END_ABSORBED 7u  /* respawn: absorb left no associated photon */
 
 #define SPM_STREAM_HAD_EVENT 1u
 #define SPM_STREAM_COLLAPSED 2u /* a specular event collapsed the stream (METHOD.md 4) */
 
-/* Counters shared by the stream kernels and read by the host each iteration. */
-#define SPM_COUNT_LIVE 0    /* streams in the next queue */
-#define SPM_COUNT_VOLUME 1  /* volume records appended */
-#define SPM_COUNT_SURFACE 2 /* surface records reserved */
-#define SPM_COUNT_ERRORS 3  /* SPM_ERROR_* bits */
-#define SPM_COUNT_CAPPED 4  /* streams ended by a safety cap */
-#define SPM_COUNT_EV_MEDIUM 5
-#define SPM_COUNT_EV_DIFFUSE 6
-#define SPM_COUNT_EV_SPECULAR 7
-#define SPM_COUNT_EV_NULL 8
-#define SPM_COUNT_EV_ESCAPE 9
-#define SPM_COUNT_EV_BLACK 10 /* absorbed at the black back of a one-sided surface */
-#define SPM_COUNT_END_ROULETTE 11 /* streams ended by Russian roulette (METHOD.md 10) */
-#define SPM_COUNT_END_DEPTH 12    /* streams ended by max_depth */
-#define SPM_COUNT_END_BOUNCES 13  /* streams ended by max_bounces */
-#define SPM_COUNT_STREAMS 14      /* streams emitted (counted on the host) */
-#define SPM_COUNTERS 16
-
+/* The queues of one wavefront iteration (METHOD.md 3). Each kernel moves a
+ * stream to one next queue or ends it:
+ *   live    -> march -> live -> interact -> deposit list (diffuse event),
+ *              absorb list (medium event), live next (specular, null) or end;
+ *   deposit -> absorb list, or end (the stream's last event);
+ *   absorb  -> respawn queue;
+ *   respawn -> live next, or end (no survivors);
+ *   emit    -> respawn queue.
+ * The deposit and absorb lists hold one entry per alive associated photon,
+ * so that the per-photon kernels launch over exactly the photons with work.
+ * Their sizes are the first counters: the host reads them once per
+ * iteration, after interact, to size the launches, and every kernel also
+ * reads its own queue's size on the device and returns past it. */
+#define SPM_COUNT_LIVE 0       /* entries of the live queue march and interact run over */
+#define SPM_COUNT_LIVE_NEXT 1  /* entries pushed to the next iteration's live queue */
+#define SPM_COUNT_ABSORB 2     /* entries of the absorb list */
+#define SPM_COUNT_ABSORBING 3  /* streams with photons in the absorb list: respawn's launch */
+#define SPM_COUNT_RESPAWN 4    /* entries of the respawn queue */
+#define SPM_COUNT_QUEUES 5     /* counters [0, SPM_COUNT_QUEUES) are queue sizes, not statistics */
+/* Counters summed over the pass, for the host's checks and the profile. */
+#define SPM_COUNT_VOLUME 5     /* volume records appended */
+#define SPM_COUNT_SURFACE 6    /* surface records reserved = entries of the deposit lists */
+#define SPM_COUNT_ERRORS 7     /* SPM_ERROR_* bits */
+#define SPM_COUNT_CAPPED 8     /* streams ended by a safety cap */
+#define SPM_COUNT_EV_MEDIUM 9
+#define SPM_COUNT_EV_DIFFUSE 10
+#define SPM_COUNT_EV_SPECULAR 11
+#define SPM_COUNT_EV_NULL 12
+#define SPM_COUNT_EV_ESCAPE 13
+#define SPM_COUNT_EV_BLACK 14      /* absorbed at the black back of a one-sided surface */
+#define SPM_COUNT_END_ROULETTE 15  /* streams ended by Russian roulette (METHOD.md 10) */
+#define SPM_COUNT_END_DEPTH 16     /* streams ended by max_depth */
+#define SPM_COUNT_END_BOUNCES 17   /* streams ended by max_bounces */
+#define SPM_COUNT_STREAMS 18       /* streams emitted (counted on the host) */
+#define SPM_COUNTERS 20
 
 /* Safety caps (METHOD.md 10): a stream ends after this many medium events or
  * events in all; the host reports how many streams the caps ended. Roulette
@@ -74,6 +96,15 @@
 #ifdef __OPENCL_VERSION__
 #define SPM_STREAM_PARAM(type, name) , __global type *st_##name
 #define SPM_STREAM_PARAMS SPM_STREAM_STATE(SPM_STREAM_PARAM)
+
+/* The same buffers bundled, for the library functions a kernel calls:
+ * `const SpmStreams st = SPM_STREAMS;` inside a kernel with SPM_STREAM_PARAMS. */
+#define SPM_STREAM_FIELD(type, name) __global type* name;
+typedef struct SpmStreams {
+  SPM_STREAM_STATE(SPM_STREAM_FIELD)
+} SpmStreams;
+#define SPM_STREAM_ARG(type, name) st_##name,
+#define SPM_STREAMS {SPM_STREAM_STATE(SPM_STREAM_ARG)}
 #endif
 
 #endif

@@ -191,6 +191,24 @@ typedef struct SpmSurfaceRecord {
   spm_uint pad;
 } SpmSurfaceRecord;
 
+/* What every stream kernel of a pass reads (METHOD.md 2-4, 10), in one
+ * struct bound by value, so that no kernel takes them one by one in an order
+ * the host must repeat. */
+typedef struct SpmStreamParams {
+  spm_uint seed;
+  spm_uint pass;
+  spm_uint pass_streams;     /* N_s of the pass */
+  spm_uint associated;       /* N_a per stream */
+  spm_float stream_width;    /* w: radius of the disk and ball of offsets */
+  spm_float march_step;      /* Delta; 0: exact free-flight sampling */
+  spm_uint max_bounces;      /* diffuse bounces before a stream ends; SPM_NONE: unlimited */
+  spm_uint max_depth;        /* longest path in segments; SPM_NONE: unlimited */
+  spm_uint rr_depth;         /* Russian roulette from this path vertex on */
+  spm_uint volume_capacity;  /* records the volume map buffer holds */
+  spm_uint surface_capacity; /* records the surface map buffer holds */
+  spm_uint pad;
+} SpmStreamParams;
+
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),
  * built on the host as flat CSR arrays: the records of cell c are
  * items[cell_start[c] .. cell_start[c + 1]). Cell (x, y, z) has index

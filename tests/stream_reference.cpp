@@ -25,6 +25,10 @@ constexpr uint32_t kRngBsdf = 3, kRngDistance = 4, kRngPhase = 5, kRngAbsorb = 6
 // March outcomes (SPM_EV_*).
 enum class Event { Medium, Surface, Escape };
 
+// What follows an event: the stages of the kernels' queues (spm_streams.h)
+// the stream passes through, as bits.
+constexpr uint32_t kDeposit = 1, kAbsorb = 2, kSphere = 4, kDisk = 8, kEnd = 16;
+
 // ---- the device's math library, modelled ------------------------------------
 //
 // Device and host libraries may round sqrt, exp, log, sin, cos, acos, ...
@@ -535,6 +539,20 @@ const char* to_string(StreamEnd end) {
   return "?";
 }
 
+uint32_t end_code(StreamEnd end) {
+  switch (end) {
+    case StreamEnd::Escaped: return SPM_END_ESCAPED;
+    case StreamEnd::Absorbed: return SPM_END_ABSORBED;
+    case StreamEnd::MaxBounces: return SPM_END_BOUNCES;
+    case StreamEnd::BlackSurface: return SPM_END_BLACK;
+    case StreamEnd::MediumCap:
+    case StreamEnd::EventCap: return SPM_END_CAPPED;
+    case StreamEnd::Roulette: return SPM_END_ROULETTE;
+    case StreamEnd::MaxDepth: return SPM_END_DEPTH;
+  }
+  return SPM_END_NONE;
+}
+
 // spm_interact's goes_on: 0 when the stream ends after vertex k, else the
 // survivors' weight 1 / q of Russian roulette (METHOD.md 10).
 float goes_on(uint32_t k, V3 flux, float flux0, const StreamSettings& set, const Rng& rng, StreamResult& out,
@@ -648,14 +666,14 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
     V3 event_pos{}, event_dir{}, event_normal{};
     bool event_had_event = false;
     if (state == Event::Escape) {
-      act = SPM_ACT_END;
+      act = kEnd;
       ++out.escape_events;
       out.end = StreamEnd::Escaped;
     } else if (state == Event::Medium) {
       const uint32_t k = depth + 1;
       ++out.medium_events;
       if (!counts(k)) {
-        act = SPM_ACT_END;
+        act = kEnd;
         out.end = StreamEnd::MaxDepth;
       } else {
         const V3 x = origin + t * dir;
@@ -675,9 +693,9 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
         const V3 albedo = load3(m.albedo);
         const float w = goes_on(k, flux * albedo, flux0, set, rng, out, margins);
         if (w == 0.0f) {
-          act = SPM_ACT_END;
+          act = kEnd;
         } else if (++medium_events >= SPM_MAX_MEDIUM_EVENTS) {
-          act = SPM_ACT_END;
+          act = kEnd;
           ++out.capped;
           out.end = StreamEnd::MediumCap;
         } else {
@@ -688,7 +706,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
           event_pos = x;
           scale = survival(albedo);
           scale.factor = scale.factor * w;
-          act = SPM_ACT_ABSORB | SPM_ACT_SPHERE;
+          act = kAbsorb | kSphere;
         }
       }
     } else {
@@ -712,7 +730,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
         V3 next;
         bool reflected;
         if (specular_bounce(mat, surf, dir, rng4(rng, kRngBsdf, 0).v[0], &next, &reflected, margins) == 0.0f) {
-          act = SPM_ACT_END;
+          act = kEnd;
           ++out.black_events;
           out.end = StreamEnd::BlackSurface;
         } else {
@@ -722,7 +740,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
           had_event = true;
           const float w = goes_on(k, phi, flux0, set, rng, out, margins);
           if (w == 0.0f) {
-            act = SPM_ACT_END;
+            act = kEnd;
           } else {
             margins.note(dot(next, surf.ng), "side of the surface leaving");
             phi = phi * w;
@@ -733,14 +751,14 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
         }
       } else if (!reflects_from(mat, surf, dir)) {
         // The back of a one-sided diffuse surface is black (Mitsuba).
-        act = SPM_ACT_END;
+        act = kEnd;
         ++out.black_events;
         out.end = StreamEnd::BlackSurface;
       } else {
         const uint32_t k = depth + 1;
         ++out.diffuse_events;
         if (!counts(k)) {
-          act = SPM_ACT_END;
+          act = kEnd;
           out.end = StreamEnd::MaxDepth;
         } else {
           out.collapsed_deposits += out.collapsed;
@@ -752,12 +770,12 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
           depth = k;
           const V3 reflectance = load3(mat.reflectance);
           if (++bounces >= set.max_bounces) {
-            act = SPM_ACT_DEPOSIT | SPM_ACT_END;
+            act = kDeposit | kEnd;
             out.end = StreamEnd::MaxBounces;
           } else {
             const float w = goes_on(k, (float)n * phi * reflectance, flux0, set, rng, out, margins);
             if (w == 0.0f) {
-              act = SPM_ACT_DEPOSIT | SPM_ACT_END;
+              act = kDeposit | kEnd;
             } else {
               const U4 u = rng4(rng, kRngBsdf, 0);
               const V3 next = to_world(sample_cosine_hemisphere(u.v[0], u.v[1]), facing_normal(surf, dir));
@@ -767,22 +785,23 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
               origin = leave_surface(surf, next);
               scale = survival(reflectance);
               scale.factor = scale.factor * w;
-              act = SPM_ACT_DEPOSIT | SPM_ACT_ABSORB | SPM_ACT_DISK;
+              act = kDeposit | kAbsorb | kDisk;
             }
           }
         }
       }
     }
     events = event + 1;
-    if (event + 1 >= SPM_MAX_EVENTS && !(act & SPM_ACT_END)) {
-      act |= SPM_ACT_END;
+    if (event + 1 >= SPM_MAX_EVENTS && !(act & kEnd)) {
+      // The cap ends the stream at interact: a diffuse event still deposits.
+      act = (act & kDeposit) | kEnd;
       ++out.capped;
       out.end = StreamEnd::EventCap;
     }
-    uint32_t alive_next = (act & (SPM_ACT_ABSORB | SPM_ACT_END)) ? 0u : n;
+    uint32_t alive_next = (act & kAbsorb) ? 0u : n;
 
     // ---- spm_deposit: one record per alive photon, before absorption ----
-    if (act & SPM_ACT_DEPOSIT) {
+    if (act & kDeposit) {
       for (uint32_t j = 0; j < n; ++j) {
         const V3 pos = out.collapsed ? event_pos : land_on_plane(event_pos, event_normal, event_dir, offsets[j]);
         SpmSurfaceRecord r{};
@@ -798,7 +817,7 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
     }
 
     // ---- spm_absorb: photon j survives if its uniform is below a ----
-    if (act & SPM_ACT_ABSORB) {
+    if (act & kAbsorb) {
       for (uint32_t j = 0; j < n; ++j) {
         const U4 u = rng4(rng, kRngAbsorb, j / 4);
         if (u.v[j % 4] < scale.prob) ++alive_next;
@@ -806,14 +825,13 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
       phi = phi * scale.factor;
     }
 
-    // ---- spm_respawn gives the survivors new offsets; spm_compact ----
-    if ((act & (SPM_ACT_SPHERE | SPM_ACT_DISK)) && !out.collapsed) {
-      respawn(alive_next, rng, (act & SPM_ACT_SPHERE) != 0, event_normal);
+    // ---- spm_respawn gives the survivors new offsets ----
+    if ((act & (kSphere | kDisk)) && !out.collapsed) {
+      respawn(alive_next, rng, (act & kSphere) != 0, event_normal);
     }
     alive = alive_next;
-    out.act = act;
-    if (!(alive > 0 && !(act & SPM_ACT_END))) {
-      if (alive == 0 && !(act & SPM_ACT_END)) out.end = StreamEnd::Absorbed;
+    if (!(alive > 0 && !(act & kEnd))) {
+      if (alive == 0 && !(act & kEnd)) out.end = StreamEnd::Absorbed;
       break;
     }
   }

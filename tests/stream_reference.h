@@ -35,14 +35,16 @@ enum class StreamEnd {
 
 const char* to_string(StreamEnd end);
 
+// The device's st_end code (SPM_END_*) for `end`.
+uint32_t end_code(StreamEnd end);
+
 struct StreamResult {
   std::vector<SpmVolumeRecord> volume;    // ordered by event
   std::vector<SpmSurfaceRecord> surface;  // ordered by (event, photon)
 
-  // Final stream state, as the device's state buffers hold it after compact.
-  uint32_t alive = 0;   // st_alive
+  // Final stream state, as the device's state buffers hold it at the end.
+  uint32_t alive = 0;   // st_alive: the photons alive when the stream ended (0: absorbed)
   uint32_t events = 0;  // st_events: the next RNG event index
-  uint32_t act = 0;     // st_state: SPM_ACT_* bits of the last event
   float phi[3] = {0, 0, 0};
   StreamEnd end = StreamEnd::Escaped;
 

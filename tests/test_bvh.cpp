@@ -141,7 +141,7 @@ TEST(Bvh, KernelClosestHitsEqualBruteForce) {
   cl::Kernel k = dev.kernel("spm_trace", "spm_trace");
   spm::set_args(k, gpu, spm::arg("origins", ob), spm::arg("directions", db), spm::arg("hits", hb),
                 spm::arg("count", cl_uint(n)));
-  dev.launch("trace", k, n);
+  dev.launch(k, n);
   const auto hits = dev.download<cl_float4>(hb, n);
 
   int hit_count = 0, grazing = 0;

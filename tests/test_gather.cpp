@@ -134,7 +134,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
                 spm::arg("origins", ob), spm::arg("directions", db), spm::arg("out", out), spm::arg("count", cl_uint(n)),
                 spm::arg("medium", cl_int(0)), spm::arg("radius", radius), spm::arg("kernel_type", cl_uint(kernel)),
                 spm::arg("estimator", cl_uint(estimator)), spm::arg("max_rec_depth", cl_uint(max_depth)));
-  dev.launch("beam_test", k, n);
+  dev.launch(k, n);
   const auto got = dev.download<cl_float4>(out, n);
   int nonzero = 0;
   for (int i = 0; i < n; ++i) {
@@ -205,7 +205,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
                                                                : spm::build_point_grid(centres, cell * radius);
         const SurfaceBuffers up = upload(dev, used, grid);
         set_surface_test_args(k, up, pb, nb, out, n, radius, kernel, max_depth);
-        dev.launch("surface_test", k, n);
+        dev.launch(k, n);
         const auto got = dev.download<cl_float4>(out, n);
         for (int i = 0; i < n; ++i) {
           const dvec3 x(points[i].s[0], points[i].s[1], points[i].s[2]);
@@ -273,7 +273,7 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
   set_surface_test_args(k, up, pb, nb, out, n, radius, 0, SPM_NONE);
-  dev.launch("surface_test", k, n);
+  dev.launch(k, n);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<double> estimates;
   for (const auto& g : got) estimates.push_back(g.s[0]);

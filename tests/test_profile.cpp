@@ -32,9 +32,9 @@ long ply_vertices(const std::string& file) {
 
 class ProfiledRender : public Profile {
  protected:
-  void render(const std::string& extra) {
+  void render(const std::string& extra, const std::string& streams = "--streams 300 --associated 8") {
     const std::string scene = write("s.xml", kFogGlassScene);
-    const auto r = run("render " + scene + " -o " + path("o.exr") + " --res 24x16 --spp 2 --streams 300 --associated 8 " +
+    const auto r = run("render " + scene + " -o " + path("o.exr") + " --res 24x16 --spp 2 " + streams + " " +
                        "--profile-json " + path("p.json") + " --trace " + path("t.json") + " " + extra);
     ASSERT_EQ(r.code, 0) << r.err;
     profile_ = read_json(path("p.json"));
@@ -62,12 +62,17 @@ TEST_F(ProfiledRender, KernelFiguresAreConsistent) {
   render("--passes 3");
   const json& k = profile_["kernels"];
   const json& c = profile_["counters"];
-  // One march per wavefront iteration, and every step of METHOD.md 3 with it.
+  // One march per wavefront iteration, and every step of METHOD.md 3 with
+  // it; respawn also runs once after each batch's emit.
   EXPECT_EQ(k["march"]["launches"], c["wavefront_iterations"]);
-  for (const char* step : {"interact", "deposit", "absorb", "compact"}) {
+  for (const char* step : {"interact", "deposit", "absorb"}) {
     EXPECT_EQ(k[step]["launches"], c["wavefront_iterations"]) << step;
   }
   EXPECT_EQ(k["emit"]["launches"], 3);  // one batch per pass here
+  EXPECT_EQ(k["respawn"]["launches"], c["wavefront_iterations"].get<uint64_t>() + 3);
+  // The per-photon kernels ran over one entry per record or photon.
+  EXPECT_EQ(k["deposit"]["items"], c["records"]["surface"]);
+  EXPECT_EQ(k["march"]["items"], k["interact"]["items"]);
   EXPECT_EQ(k["gather"]["launches"], 3);
   double kernel_ms = 0.0;
   for (const auto& [label, t] : k.items()) {
@@ -90,6 +95,21 @@ TEST_F(ProfiledRender, KernelFiguresAreConsistent) {
   }
   EXPECT_EQ(iterations, c["wavefront_iterations"].get<uint64_t>());
   EXPECT_EQ(c["gather"]["camera_samples"], 3 * 24 * 16 * 2);
+}
+
+// Each stream kernel launches over its own queue (METHOD.md 3): on a scene
+// with enough streams that padding to whole work-groups is small, at least
+// 90% of the work-items of deposit, absorb and respawn have a photon or a
+// stream to work on, where launching over every live stream times N_a (as
+// before the queues) idles deposit for every medium event and dead photon.
+TEST_F(ProfiledRender, StreamKernelsLaunchOverTheirQueues) {
+  render("--passes 1", "--streams 20000 --associated 32");
+  const json& k = profile_["kernels"];
+  for (const char* step : {"deposit", "absorb", "respawn"}) {
+    const double items = k[step]["items"].get<double>(), launched = k[step]["work_items"].get<double>();
+    EXPECT_GE(items, 0.9 * launched) << step << ": " << items << " of " << launched;
+    EXPECT_NEAR(k[step]["occupancy"].get<double>(), items / launched, 1e-9) << step;
+  }
 }
 
 TEST_F(ProfiledRender, CountersAgreeWithTheMaps) {

@@ -152,12 +152,12 @@ struct StreamView {
   size_t volume_count = 0;
   const SpmSurfaceRecord* surface = nullptr;
   size_t surface_count = 0;
-  uint32_t alive = 0, events = 0, act = 0;
+  uint32_t alive = 0, events = 0, end = 0;
   float phi[3] = {0, 0, 0};
 };
 
 StreamView view(const spm::ref::StreamResult& r) {
-  StreamView v{r.volume.data(), r.volume.size(), r.surface.data(), r.surface.size(), r.alive, r.events, r.act};
+  StreamView v{r.volume.data(), r.volume.size(), r.surface.data(), r.surface.size(), r.alive, r.events, spm::ref::end_code(r.end)};
   std::copy(r.phi, r.phi + 3, v.phi);
   return v;
 }
@@ -185,9 +185,9 @@ std::string branch_difference(const StreamView& a, const StreamView& b) {
       break;
     }
   }
-  if (a.alive != b.alive || a.events != b.events || a.act != b.act) {
-    why << "final alive " << a.alive << " events " << a.events << " act " << a.act << " vs alive " << b.alive
-        << " events " << b.events << " act " << b.act << "; ";
+  if (a.alive != b.alive || a.events != b.events || a.end != b.end) {
+    why << "final alive " << a.alive << " events " << a.events << " end " << a.end << " vs alive " << b.alive
+        << " events " << b.events << " end " << b.end << "; ";
   }
   return why.str();
 }
@@ -255,7 +255,7 @@ std::string compare_stream(const StreamView& device, const StreamView& ref, cons
 
 // The device's final state of every stream of the (single) batch.
 struct DeviceState {
-  std::vector<cl_uint> id, alive, events, state;
+  std::vector<cl_uint> id, alive, events, end;
   std::vector<cl_float4> phi;
 };
 
@@ -278,7 +278,7 @@ DeviceRun run_device(const spm::SceneTables& tables, const spm::StreamSettings& 
   }
   spm::PhotonMaps again;
   tracer.emit(0, settings.streams);
-  while (tracer.live() > 0) {
+  while (tracer.live_bound() > 0) {
     tracer.make_room(again);
     tracer.step();
   }
@@ -288,7 +288,7 @@ DeviceRun run_device(const spm::SceneTables& tables, const spm::StreamSettings& 
   run.state.id = device.download<cl_uint>(st.id, n);
   run.state.alive = device.download<cl_uint>(st.alive, n);
   run.state.events = device.download<cl_uint>(st.events, n);
-  run.state.state = device.download<cl_uint>(st.state, n);
+  run.state.end = device.download<cl_uint>(st.end, n);
   run.state.phi = device.download<cl_float4>(st.phi, n);
 
   // Same seed, same device: the two runs are bit-identical (METHOD.md 7).
@@ -356,7 +356,7 @@ void compare_pass(float march_step) {
     while (s < maps.surface.size() && maps.surface[s].stream == id) ++s, ++device.surface_count;
     device.alive = run.state.alive[id];
     device.events = run.state.events[id];
-    device.act = run.state.state[id];
+    device.end = run.state.end[id];
     std::copy(run.state.phi[id].s, run.state.phi[id].s + 3, device.phi);
 
     const spm::ref::StreamResult ref = spm::ref::trace_stream(tables, settings, id);

@@ -295,14 +295,16 @@ size_t Device::work_group_size(const cl::Kernel& kernel) const {
   return std::max<size_t>(size, 1);
 }
 
-cl::Event Device::launch(const std::string& label, cl::Kernel& kernel, size_t items) {
+size_t Device::launch(cl::Kernel& kernel, size_t items) {
   const size_t local = work_group_size(kernel);
   const size_t global = std::max<size_t>(local, (items + local - 1) / local * local);
+  std::string label = kernel.getInfo<CL_KERNEL_FUNCTION_NAME>();
+  if (label.rfind("spm_", 0) == 0) label.erase(0, 4);
   cl::Event event;
   const auto enqueued = std::chrono::steady_clock::now();
   queue_.enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(local), nullptr, &event);
   launches_.push_back({label, event, global, items, enqueued});
-  return event;
+  return launches_.size() - 1;
 }
 
 }  // namespace spm

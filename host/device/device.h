@@ -81,8 +81,14 @@ class Device {
 
   // Enqueues `kernel` over `items` work-items: the global size is padded to a
   // multiple of the work-group size (OpenCL 1.2 has no non-uniform groups), so
-  // every kernel takes its item count and returns early past it.
-  cl::Event launch(const std::string& label, cl::Kernel& kernel, size_t items);
+  // every kernel takes its item count and returns early past it. The launch
+  // is labelled with the kernel's CL_KERNEL_FUNCTION_NAME less its "spm_";
+  // returns its index among the launches since take_launches.
+  size_t launch(cl::Kernel& kernel, size_t items);
+
+  // Sets how many of launch `index`'s work-items had work, when the host
+  // learns it after the launch (a queue whose size was on the device).
+  void set_items(size_t index, size_t items) { launches_.at(index).items = items; }
 
   // A device buffer of `bytes`, checked against the device's largest
   // allocation and against the memory budget, summed over every buffer of

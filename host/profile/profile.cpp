@@ -91,6 +91,7 @@ nlohmann::json Profiler::json() const {
                            {"queued_ms", t.queued_ms},
                            {"work_items", t.work_items},
                            {"items", t.items},
+                           {"occupancy", t.work_items ? double(t.items) / t.work_items : 0.0},
                            {"items_per_second", t.total_ms > 0 ? t.items / (t.total_ms * 1e-3) : 0.0}};
   }
   j["host"] = values_;

@@ -174,7 +174,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
                arg("direct_terms", cl_uint(direct_terms && k == 0)), arg("seed", cl_uint(s.seed)),
                arg("pass", cl_uint(pass)), arg("radius", radius), arg("kernel_type", kernel_type_),
                arg("estimator", estimator_), arg("direct", direct_), grids);
-      device_.launch("gather", gather_, count);
+      device_.launch(gather_, count);
       const auto film = device_.download<cl_float4>(film_, count);
       for (size_t i = 0; i < count; ++i) {
         for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];

@@ -10,11 +10,13 @@ namespace spm {
 
 namespace {
 
-// Device memory of one stream slot: its state, two queue entries, and room for one iteration's worth of
-// surface records and eight volume records, so that flushes stay rare.
+// Device memory of one stream slot: its state, three queue entries (live,
+// next live, respawn), an entry in the deposit and the absorb list for each
+// associated photon, and room for one iteration's worth of surface records
+// and eight volume records, so that flushes stay rare.
 size_t bytes_per_stream(uint32_t associated) {
-  return StreamState::bytes_per_slot() + 2 * sizeof(cl_uint) + associated * sizeof(SpmSurfaceRecord) +
-         8 * sizeof(SpmVolumeRecord);
+  return StreamState::bytes_per_slot() + 3 * sizeof(cl_uint) +
+         associated * (sizeof(SpmSurfaceRecord) + 2 * sizeof(cl_uint)) + 8 * sizeof(SpmVolumeRecord);
 }
 
 // A batch takes `memory_budget` bytes when set, else half the device memory
@@ -48,9 +50,12 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   volume_capacity_ = 8 * capacity_;
   surface_capacity_ = capacity_ * settings_.associated;
   state_ = StreamState(device, capacity_);
-  queue_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
-  queue_next_ = device.buffer(sizeof(cl_uint) * capacity_, "the stream queue");
-  counters_buffer_ = device.buffer(sizeof(cl_uint) * SPM_COUNTERS, "the stream counters");
+  live_ = device.buffer(sizeof(cl_uint) * capacity_, "the live queue");
+  live_next_ = device.buffer(sizeof(cl_uint) * capacity_, "the next live queue");
+  respawn_queue_ = device.buffer(sizeof(cl_uint) * capacity_, "the respawn queue");
+  deposit_list_ = device.buffer(sizeof(cl_uint) * surface_capacity_, "the deposit list");
+  absorb_list_ = device.buffer(sizeof(cl_uint) * surface_capacity_, "the absorb list");
+  counts_ = device.buffer(sizeof(cl_uint) * SPM_COUNTERS, "the stream counters");
   volume_ = device.buffer(sizeof(SpmVolumeRecord) * volume_capacity_, "the volume map buffer");
   surface_ = device.buffer(sizeof(SpmSurfaceRecord) * surface_capacity_, "the surface map buffer");
   emit_ = device.kernel("spm_emit", "spm_emit");
@@ -59,63 +64,68 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   deposit_ = device.kernel("spm_deposit", "spm_deposit");
   absorb_ = device.kernel("spm_absorb", "spm_absorb");
   respawn_ = device.kernel("spm_respawn", "spm_respawn");
-  compact_ = device.kernel("spm_compact", "spm_compact");
   counters_.fill(0);
-  device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+  device_.queue().enqueueWriteBuffer(counts_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
 size_t StreamTracer::bytes() const {
   return size_t(capacity_) * bytes_per_stream(settings_.associated) + sizeof(cl_uint) * SPM_COUNTERS;
 }
 
-void StreamTracer::launch_photons(const char* label, cl::Kernel& kernel) {
-  device_.launch(label, kernel, size_t(live_) * settings_.associated);
+SpmStreamParams StreamTracer::params() const {
+  const StreamSettings& s = settings_;
+  SpmStreamParams p{};
+  p.seed = s.seed;
+  p.pass = s.pass;
+  p.pass_streams = s.streams;
+  p.associated = s.associated;
+  p.stream_width = s.width;
+  p.march_step = s.march_step;
+  p.max_bounces = s.max_bounces;
+  p.max_depth = s.max_depth;
+  p.rr_depth = s.rr_depth;
+  p.volume_capacity = volume_capacity_;
+  p.surface_capacity = surface_capacity_;
+  return p;
 }
 
 void StreamTracer::emit(uint32_t first, uint32_t count) {
   if (count == 0 || count > capacity_) throw RuntimeError("emit: batch of " + std::to_string(count) + " streams");
-  const StreamSettings& s = settings_;
-  live_ = count;
-  set_args(emit_, scene_, arg("queue", queue_), arg("count", cl_uint(count)), state_, arg("first_stream", cl_uint(first)),
-           arg("pass_streams", cl_uint(s.streams)), arg("associated", cl_uint(s.associated)),
-           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
-  device_.launch("emit", emit_, count);
-  set_args(respawn_, arg("queue", queue_), arg("count", cl_uint(count)), state_);
-  device_.launch("respawn", respawn_, count);
+  // Every emitted stream starts in the respawn queue (spm_emit.cl).
+  std::array<cl_uint, SPM_COUNT_QUEUES> queues{};
+  queues[SPM_COUNT_RESPAWN] = count;
+  device_.queue().enqueueWriteBuffer(counts_, CL_TRUE, 0, sizeof(queues), queues.data());
+  const SpmStreamParams p = params();
+  set_args(emit_, scene_, arg("params", p), arg("respawn_queue", respawn_queue_), arg("count", cl_uint(count)),
+           arg("first_stream", cl_uint(first)), state_);
+  device_.launch(emit_, count);
+  set_args(respawn_, arg("respawn_queue", respawn_queue_), arg("live_next", live_next_), arg("counts", counts_),
+           state_);
+  device_.launch(respawn_, count);
+  live_bound_ = count;
 }
 
 uint32_t StreamTracer::step() {
-  const StreamSettings& s = settings_;
-  const cl_uint n = live_;
-  if (n == 0) return 0;
-  live_log_.push_back(n);
-  // The loop of METHOD.md 3 over the live queue. Interact appends at most one
-  // volume record and n <= N_a surface records per stream; flush() made room.
-  set_args(march_, scene_, arg("queue", queue_), arg("count", n), state_, arg("march_step", s.march_step),
-           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
-  device_.launch("march", march_, n);
-  set_args(interact_, scene_, arg("queue", queue_), arg("count", n), state_, arg("volume", volume_),
-           arg("volume_capacity", volume_capacity_), arg("surface_capacity", surface_capacity_),
-           arg("counters", counters_buffer_), arg("max_bounces", cl_uint(s.max_bounces)),
-           arg("max_depth", cl_uint(s.max_depth)), arg("rr_depth", cl_uint(s.rr_depth)), arg("seed", cl_uint(s.seed)),
-           arg("pass", cl_uint(s.pass)));
-  device_.launch("interact", interact_, n);
-  set_args(deposit_, arg("queue", queue_), arg("count", n), state_, arg("associated", cl_uint(s.associated)),
-           arg("width", s.width), arg("surface", surface_), arg("surface_capacity", surface_capacity_),
-           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
-  launch_photons("deposit", deposit_);
-  set_args(absorb_, arg("queue", queue_), arg("count", n), state_, arg("associated", cl_uint(s.associated)),
-           arg("seed", cl_uint(s.seed)), arg("pass", cl_uint(s.pass)));
-  launch_photons("absorb", absorb_);
-  set_args(respawn_, arg("queue", queue_), arg("count", n), state_);
-  device_.launch("respawn", respawn_, n);
-  const cl_uint zero = 0;
-  device_.queue().enqueueWriteBuffer(counters_buffer_, CL_FALSE, sizeof(cl_uint) * SPM_COUNT_LIVE, sizeof(cl_uint),
-                                     &zero);
-  set_args(compact_, arg("queue", queue_), arg("count", n), state_, arg("queue_next", queue_next_),
-           arg("counters", counters_buffer_));
-  device_.launch("compact", compact_, n);
-  std::swap(queue_, queue_next_);
+  if (live_bound_ == 0) return 0;
+  const SpmStreamParams p = params();
+  // The loop of METHOD.md 3. Last iteration's next live queue is this one's
+  // live queue; the other queues start empty. Interact appends at most one
+  // volume record and n <= N_a surface records per stream; make_room made
+  // room for them.
+  std::swap(live_, live_next_);
+  cl::CommandQueue& queue = device_.queue();
+  queue.enqueueCopyBuffer(counts_, counts_, sizeof(cl_uint) * SPM_COUNT_LIVE_NEXT, sizeof(cl_uint) * SPM_COUNT_LIVE,
+                          sizeof(cl_uint));
+  queue.enqueueFillBuffer(counts_, cl_uint(0), sizeof(cl_uint) * SPM_COUNT_LIVE_NEXT,
+                          sizeof(cl_uint) * (SPM_COUNT_QUEUES - SPM_COUNT_LIVE_NEXT));
+  const cl_uint surface_first = counters_[SPM_COUNT_SURFACE];
+  set_args(march_, scene_, arg("params", p), arg("live", live_), arg("counts", counts_), state_);
+  const size_t march = device_.launch(march_, live_bound_);
+  set_args(interact_, scene_, arg("params", p), arg("live", live_), arg("counts", counts_),
+           arg("surface_first", surface_first), arg("volume", volume_), arg("deposit_list", deposit_list_),
+           arg("absorb_list", absorb_list_), arg("live_next", live_next_), state_);
+  const size_t interact = device_.launch(interact_, live_bound_);
+  // The iteration's one read-back: the queue sizes size the launches below.
   read_counters();
   const cl_uint errors = counters_[SPM_COUNT_ERRORS];
   if (errors & SPM_ERROR_NONFINITE) {
@@ -126,13 +136,28 @@ uint32_t StreamTracer::step() {
     throw RuntimeError("stream map overflow (error bits " + std::to_string(errors) +
                        "): the host's capacity check failed");
   }
-  live_ = counters_[SPM_COUNT_LIVE];
-  return live_;
+  const cl_uint live = counters_[SPM_COUNT_LIVE];
+  live_log_.push_back(live);
+  device_.set_items(march, live);
+  device_.set_items(interact, live);
+  set_args(deposit_, arg("params", p), arg("deposit_list", deposit_list_), arg("counts", counts_),
+           arg("surface_first", surface_first), arg("surface", surface_), arg("absorb_list", absorb_list_), state_);
+  device_.launch(deposit_, counters_[SPM_COUNT_SURFACE] - surface_first);
+  set_args(absorb_, arg("params", p), arg("absorb_list", absorb_list_), arg("respawn_queue", respawn_queue_),
+           arg("counts", counts_), state_);
+  device_.launch(absorb_, counters_[SPM_COUNT_ABSORB]);
+  set_args(respawn_, arg("respawn_queue", respawn_queue_), arg("live_next", live_next_), arg("counts", counts_),
+           state_);
+  device_.launch(respawn_, counters_[SPM_COUNT_ABSORBING]);
+  // Specular and null events went to the next live queue already; respawn
+  // adds at most the streams absorb had.
+  live_bound_ = counters_[SPM_COUNT_LIVE_NEXT] + counters_[SPM_COUNT_ABSORBING];
+  return live_bound_;
 }
 
 void StreamTracer::make_room(PhotonMaps& maps) {
-  const size_t volume = size_t(counters_[SPM_COUNT_VOLUME]) + live_;
-  const size_t surface = size_t(counters_[SPM_COUNT_SURFACE]) + size_t(live_) * settings_.associated;
+  const size_t volume = size_t(counters_[SPM_COUNT_VOLUME]) + live_bound_;
+  const size_t surface = size_t(counters_[SPM_COUNT_SURFACE]) + size_t(live_bound_) * settings_.associated;
   if (volume > volume_capacity_ || surface > surface_capacity_) {
     flush(maps);
     ++maps.stats.flushes;
@@ -140,7 +165,7 @@ void StreamTracer::make_room(PhotonMaps& maps) {
 }
 
 void StreamTracer::read_counters() {
-  device_.queue().enqueueReadBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+  device_.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
 
@@ -150,14 +175,16 @@ void StreamTracer::flush(PhotonMaps& maps) {
   const auto surface = device_.download<SpmSurfaceRecord>(surface_, counters_[SPM_COUNT_SURFACE]);
   maps.volume.insert(maps.volume.end(), volume.begin(), volume.end());
   maps.surface.insert(maps.surface.end(), surface.begin(), surface.end());
-  for (int k = 0; k < SPM_COUNTERS; ++k) {
-    if (k != SPM_COUNT_LIVE) maps.stats.counters[k] += counters_[k];
+  for (int k = SPM_COUNT_QUEUES; k < SPM_COUNTERS; ++k) {
+    maps.stats.counters[k] += counters_[k];
+    counters_[k] = 0;
   }
   maps.stats.live.insert(maps.stats.live.end(), live_log_.begin(), live_log_.end());
   live_log_.clear();
-  counters_.fill(0);
-  counters_[SPM_COUNT_LIVE] = live_;
-  device_.queue().enqueueWriteBuffer(counters_buffer_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
+  // The queues' sizes stay: a flush may come between two iterations.
+  device_.queue().enqueueWriteBuffer(counts_, CL_TRUE, sizeof(cl_uint) * SPM_COUNT_QUEUES,
+                                     sizeof(cl_uint) * (SPM_COUNTERS - SPM_COUNT_QUEUES),
+                                     counters_.data() + SPM_COUNT_QUEUES);
 }
 
 PhotonMaps StreamTracer::trace(uint32_t pass, float width) { return trace(pass, width, 0, settings_.streams); }
@@ -173,7 +200,7 @@ PhotonMaps StreamTracer::trace(uint32_t pass, float width, uint32_t begin, uint3
     emit(first, count);
     maps.stats.counters[SPM_COUNT_STREAMS] += count;
     ++maps.stats.batches;
-    while (live_ > 0) {
+    while (live_bound_ > 0) {
       make_room(maps);
       step();
     }

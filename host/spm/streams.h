@@ -1,6 +1,6 @@
 // Stream propagation (METHOD.md 2-4): batches of streams run as wavefront
-// kernels, emit then march, interact, deposit, absorb, respawn and compact,
-// until no stream lives; the records land in the two photon maps.
+// kernels over queues (kernels/spm_streams.h), emit and respawn, then march,
+// interact, deposit, absorb and respawn until no stream lives; the records land in the two photon maps.
 #pragma once
 
 #include <array>
@@ -73,10 +73,12 @@ class StreamTracer {
   // might not fit, so that nothing is ever dropped.
   void make_room(PhotonMaps& maps);
 
-  // One wavefront iteration over the live streams; returns how many live on.
+  // One wavefront iteration over the live streams; returns at most how
+  // many live on (the exact number is on the device until the next step).
   uint32_t step();
 
-  uint32_t live() const { return live_; }
+  // Streams that may still live: 0 once the batch is done.
+  uint32_t live_bound() const { return live_bound_; }
 
   // Moves the records written so far, and the counters, to `maps` (records
   // in device order; trace_streams sorts them).
@@ -88,19 +90,19 @@ class StreamTracer {
 
  private:
   void read_counters();
-  void launch_photons(const char* label, cl::Kernel& kernel);
+  SpmStreamParams params() const;
 
   Device& device_;
   const GpuScene& scene_;
   StreamSettings settings_;
   uint32_t capacity_ = 0;
-  uint32_t live_ = 0;
+  uint32_t live_bound_ = 0;
   cl_uint volume_capacity_ = 0, surface_capacity_ = 0;
   StreamState state_;
-  DeviceBuffer queue_, queue_next_, counters_buffer_, volume_, surface_;
+  DeviceBuffer live_, live_next_, respawn_queue_, deposit_list_, absorb_list_, counts_, volume_, surface_;
   std::array<cl_uint, SPM_COUNTERS> counters_{};
   std::vector<uint32_t> live_log_;
-  cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_, compact_;
+  cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_;
 };
 
 // All N_s streams of pass settings.pass, in batches sized to the device's memory.

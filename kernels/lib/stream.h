@@ -3,20 +3,21 @@
 #define SPM_LIB_STREAM_H
 
 #include "../spm_streams.h"
+#include "../spm_types.h"
 #include "math.h"
 #include "rng.h"
 #include "sampling.h"
 
-/* Random numbers of the stream's current event (the index interact advanced
- * past: events - 1). */
-#define STREAM_EVENT_RNG(s, seed, pass) rng_make((seed), (pass), st_id[(s)], st_events[(s)] - 1u)
+/* Pushes stream s onto a queue whose size is counts[size] (pbrt-v4's Push:
+ * reserve the entry atomically, then write it). */
+inline void push_stream(__global uint* queue, __global uint* counts, uint size, uint s) {
+  queue[atomic_inc(&counts[size])] = s;
+}
 
-/* Per-photon kernels run one work-item per (queue entry, photon): item g is
- * photon g % associated of the stream at queue entry g / associated. */
-inline bool photon_item(uint g, uint count, uint associated, uint* q, uint* j) {
-  *q = g / associated;
-  *j = g % associated;
-  return *q < count;
+/* Lists stream s's n alive photons from entry `base` of a photon list; a
+ * photon's index is its entry minus the stream's base. */
+inline void list_photons(__global uint* list, uint base, uint n, uint s) {
+  for (uint j = 0; j < n; ++j) list[base + j] = s;
 }
 
 /* Where the line through x + offset along d meets the plane through x
@@ -39,11 +40,11 @@ inline float3 in_tangent_disk(float3 x, float3 n, float2 u, float radius) {
 /* Photon j's offset from the leader as spm_respawn's frame of stream `id`
  * says: drawn with the random numbers of the event that placed it, uniform
  * in the ball of radius w or in the disk of radius w normal to frame.xyz. */
-inline float3 stream_offset(float4 frame, uint seed, uint pass, uint id, uint j, float width) {
+inline float3 stream_offset(float4 frame, const SpmStreamParams* p, uint id, uint j) {
   const uint bits = as_uint(frame.w);
-  const float4 u = rng4(rng_make(seed, pass, id, bits >> 1), SPM_RNG_RESPAWN, j);
-  if (bits & 1u) return width * sample_ball(u.x, u.y, u.z);
-  return in_tangent_disk((float3)(0.0f), frame.xyz, sample_disk(u.x, u.y), width);
+  const float4 u = rng4(rng_make(p->seed, p->pass, id, bits >> 1), SPM_RNG_RESPAWN, j);
+  if (bits & 1u) return p->stream_width * sample_ball(u.x, u.y, u.z);
+  return in_tangent_disk((float3)(0.0f), frame.xyz, sample_disk(u.x, u.y), p->stream_width);
 }
 
 #endif

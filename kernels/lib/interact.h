@@ -1,0 +1,185 @@
+/* What spm_interact does at each kind of event (METHOD.md 3, 4 and 10;
+ * paper 3.1 step 2 and Streamed Photon Mapping's surface rules). Each
+ * function updates stream s's leader and returns where the stream goes
+ * next (SPM_TO_*); a stream that ends has its st->end set.
+ * Medium, diffuse and specular events are path vertices (METHOD.md 10): a
+ * record at vertex k makes camera paths of at least k + 1 segments, so it is
+ * kept only within max_depth, and after vertex k the stream goes on only if
+ * vertex k + 1 could still count, and from rr_depth on, only if it survives
+ * Russian roulette. max_depth and max_bounces are SPM_NONE when unlimited. */
+#ifndef SPM_LIB_INTERACT_H
+#define SPM_LIB_INTERACT_H
+
+#include "bsdf.h"
+#include "phase.h"
+#include "stream.h"
+
+/* Where interact sends a stream. */
+#define SPM_TO_END 0u     /* nothing more to do: st->end says why */
+#define SPM_TO_LIVE 1u    /* straight to the next iteration (specular, null) */
+#define SPM_TO_ABSORB 2u  /* its photons to the absorb list (medium event) */
+#define SPM_TO_DEPOSIT 3u /* its photons to the deposit list (diffuse event); on to absorb unless it ends */
+
+/* Survival probability and survivors' flux factor for per-channel albedo or
+ * reflectance c: survive with a = mean(c), flux times c / a, so the expected
+ * flux per channel is conserved (METHOD.md 3, absorb). */
+inline float4 survival(float3 c) {
+  const float a = mean_comp(c);
+  return a > 0.0f ? (float4)(c / a, a) : (float4)(0.0f);
+}
+
+/* A record at path vertex `depth` counts within max_depth (METHOD.md 10). */
+inline bool depth_counts(uint depth, uint max_depth) { return max_depth == SPM_NONE || depth + 1u <= max_depth; }
+
+/* Ends stream s for `why`, counted in counts[counter]. */
+inline uint end_stream(SpmStreams st, uint s, uint why, __global uint* counts, uint counter) {
+  st.end[s] = why;
+  atomic_inc(&counts[counter]);
+  return SPM_TO_END;
+}
+
+/* After the event that made vertex `depth`, with `flux` the stream's expected
+ * flux after it: 0 when the stream ends here (no later vertex counts within
+ * max_depth, or Russian roulette from rr_depth on with survival
+ * q = min(0.95, max_c flux_c / flux0)), with st->end set, else the
+ * survivors' weight 1 / q. */
+inline float goes_on(const SpmStreamParams* p, SpmStreams st, uint s, uint depth, float3 flux, SpmRng rng,
+                     __global uint* counts) {
+  if (!depth_counts(depth + 1u, p->max_depth)) {
+    end_stream(st, s, SPM_END_DEPTH, counts, SPM_COUNT_END_DEPTH);
+    return 0.0f;
+  }
+  if (depth < p->rr_depth) return 1.0f;
+  const float q = fmin(0.95f, max_comp(flux) / st.flux0[s]);
+  if (!(rng4(rng, SPM_RNG_ROULETTE, 0).x < q)) {
+    end_stream(st, s, SPM_END_ROULETTE, counts, SPM_COUNT_END_ROULETTE);
+    return 0.0f;
+  }
+  return 1.0f / q;
+}
+
+/* Medium event at distance t along the leader's ray: ONE volumetric stream
+ * map record {x, direction, n phi}, a new direction from the phase
+ * function, and absorption with survival = mean albedo. */
+inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStreams st, uint s, float t, SpmRng rng,
+                         __global SpmVolumeRecord* volume, __global uint* counts) {
+  const uint depth = st.depth[s] + 1u;
+  atomic_inc(&counts[SPM_COUNT_EV_MEDIUM]);
+  if (!depth_counts(depth, p->max_depth)) return end_stream(st, s, SPM_END_DEPTH, counts, SPM_COUNT_END_DEPTH);
+  const float3 d = st.direction[s].xyz;
+  const float3 x = st.origin[s].xyz + t * d;
+  const __global SpmMedium* m = &sc->media[st.medium[s]];
+  const float3 flux = (float)st.alive[s] * st.phi[s].xyz;
+  const uint slot = atomic_inc(&counts[SPM_COUNT_VOLUME]);
+  if (slot < p->volume_capacity) {
+    __global SpmVolumeRecord* r = &volume[slot];
+    vstore3(x, 0, r->position);
+    vstore3(d, 0, r->direction);
+    vstore3(flux, 0, r->flux);
+    r->stream = st.id[s];
+    r->depth = depth;
+    r->medium = st.medium[s];
+  } else {
+    atomic_or(&counts[SPM_COUNT_ERRORS], SPM_ERROR_VOLUME_OVERFLOW);
+  }
+  st.depth[s] = depth;
+  st.flags[s] |= SPM_STREAM_HAD_EVENT;
+  const float3 albedo = load3(m->albedo);
+  const float w = goes_on(p, st, s, depth, flux * albedo, rng, counts);
+  if (w == 0.0f) return SPM_TO_END;
+  if (++st.medium_events[s] >= SPM_MAX_MEDIUM_EVENTS) return end_stream(st, s, SPM_END_CAPPED, counts, SPM_COUNT_CAPPED);
+  const float4 u = rng4(rng, SPM_RNG_PHASE, 0);
+  const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
+  st.direction[s] = (float4)(sample_phase(d, g, u.x, u.y), 0.0f);
+  st.origin[s] = (float4)(x, 0.0f);
+  const float4 sv = survival(albedo);
+  st.scale[s] = (float4)(sv.xyz * w, sv.w);
+  return SPM_TO_ABSORB;
+}
+
+/* Mirror or dielectric: collapse (phi := n phi, n := 1; METHOD.md 4), then
+ * reflect or refract. */
+inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, const SpmSurface* surf,
+                           const __global SpmShape* shape, const __global SpmMaterial* mat, SpmRng rng,
+                           __global uint* counts) {
+  const float3 d = st.direction[s].xyz;
+  const uint depth = st.depth[s] + 1u;
+  st.phi[s] *= (float4)((float)st.alive[s], (float)st.alive[s], (float)st.alive[s], 1.0f);
+  st.alive[s] = 1;
+  st.flags[s] |= SPM_STREAM_COLLAPSED;
+  float3 next;
+  if (specular_bounce(mat, surf, d, rng4(rng, SPM_RNG_BSDF, 0).x, false, &next) == 0.0f) {
+    return end_stream(st, s, SPM_END_BLACK, counts, SPM_COUNT_EV_BLACK);
+  }
+  atomic_inc(&counts[SPM_COUNT_EV_SPECULAR]);
+  st.depth[s] = depth;
+  st.flags[s] |= SPM_STREAM_HAD_EVENT;
+  const float w = goes_on(p, st, s, depth, st.phi[s].xyz, rng, counts);
+  if (w == 0.0f) return SPM_TO_END;
+  st.phi[s] *= (float4)(w, w, w, 1.0f);
+  st.direction[s] = (float4)(next, 0.0f);
+  st.medium[s] = target_medium(shape, surf->ng, next, st.medium[s]);
+  st.origin[s] = (float4)(leave_surface(surf, next), 0.0f);
+  return SPM_TO_LIVE;
+}
+
+/* Diffuse surface: the stream's photons are deposited (spm_deposit), the
+ * bounce count grows, the stream ends at max_bounces, else it leaves in a
+ * cosine-weighted direction and its photons are absorbed with survival =
+ * mean reflectance. */
+inline uint diffuse_event(const SpmStreamParams* p, SpmStreams st, uint s, const SpmSurface* surf,
+                          const __global SpmShape* shape, const __global SpmMaterial* mat, SpmRng rng,
+                          __global uint* counts) {
+  const float3 d = st.direction[s].xyz;
+  const uint depth = st.depth[s] + 1u;
+  atomic_inc(&counts[SPM_COUNT_EV_DIFFUSE]);
+  if (!depth_counts(depth, p->max_depth)) return end_stream(st, s, SPM_END_DEPTH, counts, SPM_COUNT_END_DEPTH);
+  st.event_pos[s] = (float4)(surf->p, 0.0f);
+  st.event_dir[s] = (float4)(d, (st.flags[s] & SPM_STREAM_HAD_EVENT) ? 1.0f : 0.0f);
+  st.event_normal[s] = (float4)(dot(d, surf->ng) < 0.0f ? surf->ng : -surf->ng, 0.0f);
+  st.flags[s] |= SPM_STREAM_HAD_EVENT;
+  st.depth[s] = depth;
+  const float3 reflectance = load3(mat->reflectance);
+  if (++st.bounces[s] >= p->max_bounces) {
+    end_stream(st, s, SPM_END_BOUNCES, counts, SPM_COUNT_END_BOUNCES);
+    return SPM_TO_DEPOSIT;
+  }
+  const float w = goes_on(p, st, s, depth, (float)st.alive[s] * st.phi[s].xyz * reflectance, rng, counts);
+  if (w == 0.0f) return SPM_TO_DEPOSIT;
+  const float4 u = rng4(rng, SPM_RNG_BSDF, 0);
+  const float3 next = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d));
+  st.direction[s] = (float4)(next, 0.0f);
+  st.medium[s] = target_medium(shape, surf->ng, next, st.medium[s]);
+  st.origin[s] = (float4)(leave_surface(surf, next), 0.0f);
+  const float4 sv = survival(reflectance);
+  st.scale[s] = (float4)(sv.xyz * w, sv.w);
+  return SPM_TO_DEPOSIT;
+}
+
+/* A surface event: what the material at the hit makes of it. */
+inline uint surface_event(const SpmScene* sc, const SpmStreamParams* p, SpmStreams st, uint s, SpmRng rng,
+                          __global uint* counts) {
+  const float4 hit = st.hit[s];
+  SpmHit h;
+  h.t = hit.x;
+  h.prim = as_uint(hit.y);
+  h.u = hit.z;
+  h.v = hit.w;
+  const float3 d = st.direction[s].xyz;
+  const SpmSurface surf = scene_surface(sc, st.origin[s].xyz, d, h);
+  const __global SpmShape* shape = &sc->shapes[surf.shape];
+  const __global SpmMaterial* mat = &sc->materials[shape->material];
+  if (mat->type == SPM_MAT_NULL) {
+    /* A medium boundary is no event: the stream just changes medium. */
+    st.medium[s] = target_medium(shape, surf.ng, d, st.medium[s]);
+    st.origin[s] = (float4)(leave_surface(&surf, d), 0.0f);
+    atomic_inc(&counts[SPM_COUNT_EV_NULL]);
+    return SPM_TO_LIVE;
+  }
+  if (mat->type != SPM_MAT_DIFFUSE) return specular_event(p, st, s, &surf, shape, mat, rng, counts);
+  /* The back of a one-sided diffuse surface is black (Mitsuba). */
+  if (!reflects_from(mat, &surf, d)) return end_stream(st, s, SPM_END_BLACK, counts, SPM_COUNT_EV_BLACK);
+  return diffuse_event(p, st, s, &surf, shape, mat, rng, counts);
+}
+
+#endif
