@@ -59,8 +59,8 @@ struct RenderArgs {
   std::optional<size_t> device_memory;
   // Overrides of the scene's <integrator type="spm"> properties.
   std::optional<int> streams, associated, bounces, max_depth, rr_depth;
-  std::optional<float> width, march_step, radius, alpha, time;
-  std::optional<std::string> estimator, kernel, direct;
+  std::optional<float> stream_width, march_step, radius, alpha, time;
+  std::optional<std::string> estimator, density_kernel, direct;
 };
 
 void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
@@ -71,20 +71,20 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   };
   positive(a.streams, "--streams");
   positive(a.associated, "--associated");
-  positive(a.width, "--width");
+  positive(a.stream_width, "--stream-width");
   positive(a.radius, "--radius");
   if (a.streams) in.streams = *a.streams;
   if (a.associated) in.associated = *a.associated;
   if (a.bounces) in.max_bounces = *a.bounces;
   if (a.max_depth) in.max_depth = *a.max_depth;
   if (a.rr_depth) in.rr_depth = *a.rr_depth;
-  if (a.width) in.width = *a.width;
+  if (a.stream_width) in.stream_width = *a.stream_width;
   if (a.march_step) in.march_step = *a.march_step;
   if (a.radius) in.radius = *a.radius;
   if (a.alpha) in.alpha = *a.alpha;
   if (a.time) in.time = *a.time;
   if (a.estimator) in.estimator = *a.estimator;
-  if (a.kernel) in.kernel = *a.kernel;
+  if (a.density_kernel) in.density_kernel = *a.density_kernel;
   if (a.direct) in.direct = *a.direct;
 }
 
@@ -159,7 +159,7 @@ int cmd_render(const RenderArgs& a) {
       const auto src = [](bool given) { return given ? "" : " (derived)"; };
       std::fprintf(stderr,
                    "spm: rendering %s at %dx%d, %s x %d spp on %s%s\n"
-                   "spm: streams %d%s x associated %d%s, radius %.6g%s, width %.6g%s, max_depth %d, rr_depth %d, "
+                   "spm: streams %d%s x associated %d%s, radius %.6g%s, stream width %.6g%s, max_depth %d, rr_depth %d, "
                    "max_bounces %d\n",
                    a.scene.c_str(), settings.width, settings.height,
                    timed ? ("passes for " + std::to_string(in.time) + " s").c_str()
@@ -167,10 +167,10 @@ int cmd_render(const RenderArgs& a) {
                    u.spp, names.c_str(),
                    cluster.size() > 1 ? (" (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)").c_str() : "",
                    u.streams, src(in.streams > 0 && u.streams == in.streams), u.associated, src(in.associated > 0),
-                   u.radius, src(in.radius > 0), u.width, src(in.width > 0), in.max_depth, in.rr_depth,
+                   u.radius, src(in.radius > 0), u.stream_width, src(in.stream_width > 0), in.max_depth, in.rr_depth,
                    in.max_bounces);
       used_json = {{"streams", u.streams}, {"associated", u.associated}, {"radius", u.radius},
-                   {"width", u.width},     {"spp_per_pass", u.spp},      {"passes", u.passes},
+                   {"stream_width", u.stream_width},     {"spp_per_pass", u.spp},      {"passes", u.passes},
                    {"max_depth", in.max_depth}, {"rr_depth", in.rr_depth}, {"max_bounces", in.max_bounces},
                    {"pilot_s", u.pilot_seconds}, {"time_budget_s", in.time}};
     };
@@ -285,7 +285,7 @@ int main(int argc, char** argv) {
   render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams'); default 10000");
   render->add_option("--associated", r.associated,
                      "Associated photons per stream, N_a (integrator 'associated'); default 4");
-  render->add_option("--width", r.width,
+  render->add_option("--stream-width", r.stream_width,
                      "Stream width w: respawn sphere and deposit disk radius (integrator 'width'); default: the radius");
   render->add_option("--bounces", r.bounces,
                      "Diffuse bounces before a stream ends (integrator 'max_bounces'); default -1, unlimited");
@@ -311,7 +311,7 @@ int main(int argc, char** argv) {
                      "eq. (4) of the paper literally, kept to reproduce its figures: it has no phase function, "
                      "transmittance or albedo and is not energy-consistent")
       ->check(CLI::IsMember(spm::kEstimatorOption.names()));
-  render->add_option("--kernel", r.kernel, "Density estimation kernel: uniform (default) or epanechnikov")
+  render->add_option("--density-kernel", r.density_kernel, "Density estimation kernel: uniform (default) or epanechnikov")
       ->check(CLI::IsMember(spm::kDensityKernelOption.names()));
   render->add_option("--direct", r.direct,
                      "Direct light on surfaces: 'nee' (default; shadow rays with transmittance) or 'photons' "

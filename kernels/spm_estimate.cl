@@ -9,24 +9,24 @@ __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uin
                             const __global float4* item_pos, const __global uint* items,
                             const __global SpmVolumeRecord* records, const __global SpmMedium* media,
                             const __global float4* origins, const __global float4* directions, __global float4* out,
-                            uint count, int medium, float radius, uint kernel_type, uint estimator,
+                            uint count, int medium, float radius, uint density_kernel, uint estimator,
                             uint max_rec_depth) {
   const uint i = get_global_id(0);
   if (i >= count) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   uint tests = 0;
   const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
-                                 origins[i].w, directions[i].w, radius, kernel_type, estimator, max_rec_depth, &tests);
+                                 origins[i].w, directions[i].w, radius, density_kernel, estimator, max_rec_depth, &tests);
   out[i] = (float4)(l, (float)tests);
 }
 
 __kernel void spm_surface_test(const __global SpmGridInfo* info, const __global uint* cell_start,
                                const __global float4* item_pos, const __global float4* item_flux,
                                const __global float4* points, const __global float4* normals, __global float4* out,
-                               uint count, float radius, uint kernel_type, uint max_rec_depth) {
+                               uint count, float radius, uint density_kernel, uint max_rec_depth) {
   const uint i = get_global_id(0);
   if (i >= count) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   out[i] = (float4)(
-      surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, kernel_type, max_rec_depth), 0.0f);
+      surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, density_kernel, max_rec_depth), 0.0f);
 }

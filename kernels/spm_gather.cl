@@ -11,6 +11,7 @@
  * When the maps are gathered in parts (too large for the device at once),
  * only the first part's launch adds emission and next-event estimation. */
 #include "spm_types.h"
+#include "spm_maps.h"
 #include "lib/bsdf.h"
 #include "lib/camera.h"
 #include "lib/estimate.h"
@@ -26,7 +27,7 @@ typedef struct SpmMaps {
   SpmGrid surface_grid;
   const __global float4* surface_flux;
   float radius;
-  uint kernel_type;
+  uint density_kernel;
   uint estimator;
   uint direct;
 } SpmMaps;
@@ -42,7 +43,7 @@ inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float 
   float remaining = dist;
   for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
     SpmHit h;
-    if (!scene_trace(s, o, d, remaining, &h)) return tr * medium_transmittance(s, medium, remaining);
+    if (!scene_intersect(s, o, d, remaining, &h)) return tr * medium_transmittance(s, medium, remaining);
     const SpmSurface surf = scene_surface(s, o, d, h);
     const __global SpmShape* shape = &s->shapes[surf.shape];
     if (s->materials[shape->material].type != SPM_MAT_NULL) return (float3)(0.0f);
@@ -102,11 +103,11 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
   for (uint vertex = 0; vertex < 4u * SPM_MAX_CAMERA_SPECULAR + 4u; ++vertex) {
     rng.event = first_event + vertex;
     SpmHit h;
-    const bool hit = scene_trace(s, o + tmin * d, d, tmax - tmin, &h);
+    const bool hit = scene_intersect(s, o + tmin * d, d, tmax - tmin, &h);
     const float t_end = hit ? h.t + tmin : tmax;
     if (medium >= 0) {
       L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
-                                t_end, maps->radius, maps->kernel_type, maps->estimator,
+                                t_end, maps->radius, maps->density_kernel, maps->estimator,
                                 record_depth_limit(max_depth, specular), tests);
     }
     /* Escaping: outside a medium there is no environment light in the
@@ -134,7 +135,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         const bool nee = maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth);
         if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, rng);
         const float3 flux = surface_estimate(&maps->surface_grid, maps->surface_flux, surf.p, facing_normal(&surf, d),
-                                             maps->radius, maps->kernel_type, record_depth_limit(max_depth, specular));
+                                             maps->radius, maps->density_kernel, record_depth_limit(max_depth, specular));
         L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
       }
       break;
@@ -151,14 +152,9 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
   return L;
 }
 
-__kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global float4* film,
-                         __global uint* tests_out, __global uint* errors, uint first_pixel, uint count, uint spp,
-                         uint max_depth, uint direct_terms, uint seed, uint pass, float radius,
-                         uint kernel_type, uint estimator, uint direct, const __global SpmGridInfo* volume_info,
-                         const __global uint* volume_start, const __global float4* volume_pos,
-                         const __global uint* volume_items, const __global SpmVolumeRecord* volume,
-                         const __global SpmGridInfo* surface_info, const __global uint* surface_start,
-                         const __global float4* surface_pos, const __global float4* surface_flux) {
+__kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __global SpmCamera* camera,
+                         __global float4* film, __global uint* sphere_tests, __global uint* errors, uint first_pixel,
+                         uint count SPM_MAP_PARAMS) {
   /* A tile of `count` pixels from first_pixel: the film of a whole image may
    * not fit one allocation. */
   const uint item = get_global_id(0);
@@ -171,28 +167,28 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __g
   maps.volume = volume;
   maps.surface_grid = make_grid(surface_info, surface_start, surface_pos);
   maps.surface_flux = surface_flux;
-  maps.radius = radius;
-  maps.kernel_type = kernel_type;
-  maps.estimator = estimator;
-  maps.direct = direct;
-  maps.direct_terms = direct_terms;
+  maps.radius = params.radius;
+  maps.density_kernel = params.density_kernel;
+  maps.estimator = params.estimator;
+  maps.direct = params.direct;
+  maps.direct_terms = params.direct_terms;
   uint tests = 0;
   const uint px = pixel % camera->width;
   const uint py = pixel / camera->width;
   float3 sum = (float3)(0.0f);
-  for (uint i = 0; i < spp; ++i) {
+  for (uint i = 0; i < params.spp; ++i) {
     /* Event index: a block of 256 per sample, one per path vertex. */
-    SpmRng rng = rng_make(seed, pass, pixel, i * 256u);
+    SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);
     const float4 u = rng4(rng, SPM_RNG_CAMERA, 0);
     const float2 off = sample_filter(camera, u.x, u.y);
     float3 o;
     float tmin, tmax;
     const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
-    sum += radiance(&s, &maps, camera, o, d, tmin, tmax, max_depth, rng, &tests);
+    sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, rng, &tests);
   }
   /* A NaN or infinity is a bug to find, not a value to clamp: the host fails
    * the render when this bit is set. */
   if (!all(isfinite(sum))) atomic_or(errors, SPM_ERROR_NONFINITE);
-  film[item] = (float4)(sum / (float)spp, 1.0f);
-  tests_out[item] = tests;
+  film[item] = (float4)(sum / (float)params.spp, 1.0f);
+  sphere_tests[item] = tests;
 }

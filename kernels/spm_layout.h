@@ -20,6 +20,7 @@
   S(SpmVolumeRecord, 48)      \
   S(SpmSurfaceRecord, 64)     \
   S(SpmStreamParams, 48)      \
+  S(SpmGatherParams, 48)      \
   S(SpmGridInfo, 32)
 
 /* F(struct, field) */
@@ -50,6 +51,9 @@
   F(SpmStreamParams, associated) F(SpmStreamParams, stream_width) F(SpmStreamParams, march_step) \
   F(SpmStreamParams, max_bounces) F(SpmStreamParams, max_depth) F(SpmStreamParams, rr_depth)     \
   F(SpmStreamParams, volume_capacity) F(SpmStreamParams, surface_capacity)                       \
+  F(SpmGatherParams, seed) F(SpmGatherParams, pass) F(SpmGatherParams, spp)                     \
+  F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
+  F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

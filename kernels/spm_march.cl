@@ -38,7 +38,7 @@ __kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global
   const float3 o = st_origin[s].xyz;
   const float3 d = st_direction[s].xyz;
   SpmHit h;
-  const bool surface = scene_trace(&sc, o, d, SPM_INF, &h);
+  const bool surface = scene_intersect(&sc, o, d, SPM_INF, &h);
   uint event = surface ? SPM_EV_SURFACE : SPM_EV_ESCAPE;
   float t = h.t;
   const int m = st_medium[s];

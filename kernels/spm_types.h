@@ -209,6 +209,21 @@ typedef struct SpmStreamParams {
   spm_uint pad;
 } SpmStreamParams;
 
+/* What the gather kernel of a pass reads besides the maps (METHOD.md 5, 6,
+ * 10), in one struct bound by value. */
+typedef struct SpmGatherParams {
+  spm_uint seed;
+  spm_uint pass;
+  spm_uint spp;            /* camera samples per pixel in the pass */
+  spm_uint max_depth;      /* longest path in segments; SPM_NONE: unlimited */
+  spm_float radius;        /* r of the pass */
+  spm_uint density_kernel; /* SPM_KERNEL_* */
+  spm_uint estimator;      /* SPM_ESTIMATOR_* */
+  spm_uint direct;         /* SPM_DIRECT_* */
+  spm_uint direct_terms;   /* 0: the photon estimates alone (a later part of the maps) */
+  spm_uint pad[3];
+} SpmGatherParams;
+
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),
  * built on the host as flat CSR arrays: the records of cell c are
  * items[cell_start[c] .. cell_start[c + 1]). Cell (x, y, z) has index

@@ -612,11 +612,11 @@ StreamResult trace_stream(const SceneTables& sc, const StreamSettings& set, uint
     for (uint32_t j = 0; j < count; ++j) {
       const U4 u = rng4(rng, kRngRespawn, j);
       if (ball) {
-        offsets[j] = set.width * sample_ball(u.v[0], u.v[1], u.v[2]);
+        offsets[j] = set.stream_width * sample_ball(u.v[0], u.v[1], u.v[2]);
       } else {
         float dx, dy;
         sample_disk(u.v[0], u.v[1], &dx, &dy);
-        offsets[j] = in_tangent_disk(V3{0.0f, 0.0f, 0.0f}, normal, dx, dy, set.width);
+        offsets[j] = in_tangent_disk(V3{0.0f, 0.0f, 0.0f}, normal, dx, dy, set.stream_width);
       }
     }
   };

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "scene/gpu_scene.h"
-#include "spm/streams.h"
+#include "spm/propagate.h"
 #include "spm_types.h"
 
 namespace spm::ref {

@@ -136,9 +136,9 @@ TEST(Bvh, KernelClosestHitsEqualBruteForce) {
     origins[i] = {{o.x, o.y, o.z, reach(rng)}};
     dirs[i] = {{d.x, d.y, d.z, 0.0f}};
   }
-  const cl::Buffer ob = dev.upload(origins), db = dev.upload(dirs);
-  cl::Buffer hb(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
-  cl::Kernel k = dev.kernel("spm_trace", "spm_trace");
+  const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
+  const spm::DeviceBuffer hb = dev.buffer(sizeof(cl_float4) * n, "hits", CL_MEM_WRITE_ONLY);
+  cl::Kernel k = dev.kernel("spm_intersect", "spm_intersect");
   spm::set_args(k, gpu, spm::arg("origins", ob), spm::arg("directions", db), spm::arg("hits", hb),
                 spm::arg("count", cl_uint(n)));
   dev.launch(k, n);

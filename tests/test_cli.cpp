@@ -90,9 +90,9 @@ TEST_F(Cli, UsageErrorsAreBadInput) {
 TEST_F(Cli, StreamOptionsAreValidated) {
   const std::string scene = write("tiny.xml", kTinyScene);
   const std::string base = "render " + scene + " -o " + path("o.exr") + " --spp 1 ";
-  EXPECT_EQ(run(base + "--streams 100 --associated 4 --width 0.1 --bounces 2 --march-step 0.5").code, 0);
-  for (const char* bad : {"--streams 0", "--associated 0", "--associated 70000", "--width -1", "--bounces 0",
-                          "--march-step -0.5", "--width nan"}) {
+  EXPECT_EQ(run(base + "--streams 100 --associated 4 --stream-width 0.1 --bounces 2 --march-step 0.5").code, 0);
+  for (const char* bad : {"--streams 0", "--associated 0", "--associated 70000", "--stream-width -1", "--bounces 0",
+                          "--march-step -0.5", "--stream-width nan"}) {
     const Outcome r = run(base + bad);
     EXPECT_EQ(r.code, 2) << bad;
     EXPECT_EQ(count_lines(r.err), 1) << bad << ": " << r.err;

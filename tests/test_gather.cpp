@@ -8,7 +8,7 @@
 
 #include "render/render.h"
 #include "scene/loader.h"
-#include "spm/gather.h"
+#include "spm/map_grids.h"
 #include "spm/record_grid.h"
 #include "stats.h"
 #include "test_support.h"
@@ -62,8 +62,9 @@ struct VolumeBuffers {
 
 VolumeBuffers upload(spm::Device& dev, const std::vector<SpmVolumeRecord>& records, float radius) {
   const spm::RecordGrid grid = spm::volume_grid(records, radius);
-  return {dev.upload(std::vector<SpmGridInfo>{grid.info}), dev.upload(grid.cell_start),
-          dev.upload(spm::volume_item_positions(grid, records)), dev.upload(grid.items), dev.upload(records)};
+  return {dev.upload("volume_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("volume_start", grid.cell_start),
+          dev.upload("volume_pos", spm::volume_item_positions(grid, records)), dev.upload("volume_items", grid.items),
+          dev.upload("volume", records)};
 }
 
 // The surface map: grid info, cell starts, item positions (normal packed),
@@ -73,8 +74,9 @@ struct SurfaceBuffers {
 };
 
 SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& records, const spm::RecordGrid& grid) {
-  return {dev.upload(std::vector<SpmGridInfo>{grid.info}), dev.upload(grid.cell_start),
-          dev.upload(spm::surface_item_positions(grid, records)), dev.upload(spm::surface_item_flux(grid, records))};
+  return {dev.upload("surface_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("surface_start", grid.cell_start),
+          dev.upload("surface_pos", spm::surface_item_positions(grid, records)),
+          dev.upload("surface_flux", spm::surface_item_flux(grid, records))};
 }
 
 // spm_surface_test's arguments, by name.
@@ -83,7 +85,7 @@ void set_surface_test_args(cl::Kernel& k, const SurfaceBuffers& up, const cl::Bu
   spm::set_args(k, spm::arg("info", up.info), spm::arg("cell_start", up.start), spm::arg("item_pos", up.pos),
                 spm::arg("item_flux", up.flux), spm::arg("points", points), spm::arg("normals", normals),
                 spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("radius", radius),
-                spm::arg("kernel_type", cl_uint(kernel)), spm::arg("max_rec_depth", cl_uint(max_depth)));
+                spm::arg("density_kernel", cl_uint(kernel)), spm::arg("max_rec_depth", cl_uint(max_depth)));
 }
 
 class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int, uint32_t>> {};
@@ -115,7 +117,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   const float radius = 0.8f;  // small against the box: long rays cross many cells
   auto& dev = spm::test::device();
   const VolumeBuffers u = upload(dev, records, radius);
-  const cl::Buffer media = dev.upload(std::vector<SpmMedium>{medium, medium});
+  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{medium, medium});
   const int n = 500;
   std::vector<cl_float4> origins(n), dirs(n);
   for (int i = 0; i < n; ++i) {
@@ -126,13 +128,13 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
     origins[i] = {{o.x, o.y, o.z, t0}};
     dirs[i] = {{d.x, d.y, d.z, t1}};
   }
-  const cl::Buffer ob = dev.upload(origins), db = dev.upload(dirs);
-  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
+  const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
   spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
                 spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
                 spm::arg("origins", ob), spm::arg("directions", db), spm::arg("out", out), spm::arg("count", cl_uint(n)),
-                spm::arg("medium", cl_int(0)), spm::arg("radius", radius), spm::arg("kernel_type", cl_uint(kernel)),
+                spm::arg("medium", cl_int(0)), spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
                 spm::arg("estimator", cl_uint(estimator)), spm::arg("max_rec_depth", cl_uint(max_depth)));
   dev.launch(k, n);
   const auto got = dev.download<cl_float4>(out, n);
@@ -187,8 +189,8 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
     points[i] = floor ? cl_float4{{a, 0.0f, b, 0.0f}} : cl_float4{{0.0f, a, b, 0.0f}};
     normals[i] = floor ? cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}} : cl_float4{{1.0f, 0.0f, 0.0f, 0.0f}};
   }
-  const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
-  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
+  const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals);
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
   // The gather's grid (cells of kSurfaceCell r), and point grids of cells
   // smaller and larger than r, which the query must handle alike.
@@ -269,8 +271,8 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   const int n = 200;
   std::vector<cl_float4> points(n), normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
   for (auto& p : points) p = {{radius + (side - 2 * radius) * u(rng), 0.0f, radius + (side - 2 * radius) * u(rng), 0}};
-  const cl::Buffer pb = dev.upload(points), nb = dev.upload(normals);
-  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_float4) * n);
+  const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals);
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
   set_surface_test_args(k, up, pb, nb, out, n, radius, 0, SPM_NONE);
   dev.launch(k, n);

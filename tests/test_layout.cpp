@@ -27,7 +27,7 @@ std::vector<Entry> host_layout() {
 TEST(Layout, DeviceSeesTheHostLayout) {
   auto& dev = spm::test::device();
   const auto host = host_layout();
-  cl::Buffer out(dev.context(), CL_MEM_WRITE_ONLY, sizeof(cl_uint) * host.size());
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_uint) * host.size(), "layout", CL_MEM_WRITE_ONLY);
   cl::Buffer probe(dev.context(), CL_MEM_READ_ONLY, 256);
   cl::Kernel k = dev.kernel("spm_layout", "spm_layout");
   spm::set_args(k, spm::arg("out", out), spm::arg("probe", probe));

@@ -16,7 +16,7 @@
 #include "scene/gpu_scene.h"
 #include "scene/loader.h"
 #include "scene/media_regions.h"
-#include "spm/streams.h"
+#include "spm/propagate.h"
 #include "stats.h"
 #include "test_support.h"
 #include "util/errors.h"
@@ -137,10 +137,10 @@ TEST(Roulette, BoundsTheEventsOfStreamsInUnboundedAlbedoOneFog) {
   spm::StreamSettings st;
   st.streams = 20000;
   st.associated = 4;
-  st.width = 0.1f;
+  st.stream_width = 0.1f;
   st.max_bounces = SPM_NONE;
   st.rr_depth = 5;
-  const spm::PhotonMaps maps = spm::trace_streams(dev, gpu, st);
+  const spm::PhotonMaps maps = spm::propagate_streams(dev, gpu, st);
   const auto& c = maps.stats.counters;
   EXPECT_EQ(c[SPM_COUNT_CAPPED], 0u);
   EXPECT_EQ(c[SPM_COUNT_END_ROULETTE], st.streams) << "roulette ends every stream";
@@ -222,7 +222,7 @@ TEST(ScaleFree, AGivenRadiusIsTheWidthTooWhenNoWidthIsGiven) {
   auto& dev = spm::test::device();
   const spm::Scene d = spm::derive_scale(scene, dev, 1);
   EXPECT_FLOAT_EQ(d.integrator.radius, 0.2f);
-  EXPECT_FLOAT_EQ(d.integrator.width, 0.2f);
+  EXPECT_FLOAT_EQ(d.integrator.stream_width, 0.2f);
   EXPECT_FALSE(d.integrator.radius_derived);
   // And the render uses it (the settings it announces).
   spm::RenderSettings s;
@@ -230,7 +230,7 @@ TEST(ScaleFree, AGivenRadiusIsTheWidthTooWhenNoWidthIsGiven) {
   s.spp = 1;
   s.width = s.height = 8;
   float width = -1.0f;
-  s.announce = [&](const spm::RenderUsed& u) { width = u.width; };
+  s.announce = [&](const spm::RenderUsed& u) { width = u.stream_width; };
   spm::render(scene, s, dev);
   EXPECT_FLOAT_EQ(width, 0.2f);
 }
@@ -244,7 +244,7 @@ TEST(ScaleFree, DefaultsDeriveTheSameRadiusAtAnyScale) {
   for (float k : {100.0f, 0.01f}) {
     const spm::Scene d = spm::derive_scale(scaled(scene, k), dev, 1);
     EXPECT_NEAR(d.integrator.radius / k, r, 1e-2f * r) << "scale " << k;
-    EXPECT_FLOAT_EQ(d.integrator.width, d.integrator.radius);
+    EXPECT_FLOAT_EQ(d.integrator.stream_width, d.integrator.radius);
   }
 }
 

@@ -1048,7 +1048,7 @@ TEST(SceneParser, SpmIntegratorSettings) {
   EXPECT_EQ(i.passes, 3);
   EXPECT_EQ(i.max_depth, 8);
   EXPECT_FLOAT_EQ(i.radius, 1.5f);
-  EXPECT_FLOAT_EQ(i.width, 2.0f);
+  EXPECT_FLOAT_EQ(i.stream_width, 2.0f);
   EXPECT_FLOAT_EQ(i.march_step, 0.25f);
   EXPECT_FLOAT_EQ(i.time, 60.0f);
   EXPECT_EQ(i.estimator, "paper");

@@ -16,7 +16,7 @@
 
 #include "scene/gpu_scene.h"
 #include "scene/loader.h"
-#include "spm/streams.h"
+#include "spm/propagate.h"
 #include "stream_reference.h"
 #include "test_support.h"
 
@@ -268,22 +268,22 @@ DeviceRun run_device(const spm::SceneTables& tables, const spm::StreamSettings& 
   spm::Device& device = spm::test::device();
   const spm::GpuScene gpu(device, tables);
   DeviceRun run;
-  run.maps = spm::trace_streams(device, gpu, settings);
+  run.maps = spm::propagate_streams(device, gpu, settings);
 
   // The same pass again step by step, to read the streams' final state.
-  spm::StreamTracer tracer(device, gpu, settings);
-  if (tracer.batch_capacity() < settings.streams) {
-    ADD_FAILURE() << "the test expects one batch; capacity " << tracer.batch_capacity();
+  spm::StreamPropagator propagator(device, gpu, settings);
+  if (propagator.batch_capacity() < settings.streams) {
+    ADD_FAILURE() << "the test expects one batch; capacity " << propagator.batch_capacity();
     return run;
   }
   spm::PhotonMaps again;
-  tracer.emit(0, settings.streams);
-  while (tracer.live_bound() > 0) {
-    tracer.make_room(again);
-    tracer.step();
+  propagator.emit(0, settings.streams);
+  while (propagator.live_bound() > 0) {
+    propagator.make_room(again);
+    propagator.step();
   }
-  tracer.flush(again);
-  const spm::StreamState& st = tracer.state();
+  propagator.flush(again);
+  const spm::StreamState& st = propagator.state();
   const size_t n = settings.streams;
   run.state.id = device.download<cl_uint>(st.id, n);
   run.state.alive = device.download<cl_uint>(st.alive, n);
@@ -329,7 +329,7 @@ void compare_pass(float march_step) {
   spm::StreamSettings settings;
   settings.streams = 300;
   settings.associated = 8;
-  settings.width = 0.5f;
+  settings.stream_width = 0.5f;
   settings.max_bounces = 4;
   settings.march_step = march_step;
   settings.seed = 1234;

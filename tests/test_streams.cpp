@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "scene/loader.h"
-#include "spm/streams.h"
+#include "spm/propagate.h"
 #include "stats.h"
 #include "test_support.h"
 
@@ -37,7 +37,7 @@ spm::SceneTables tables_of(const std::string& xml) {
 Traced trace(const std::string& xml, const spm::StreamSettings& s) {
   Traced t{tables_of(xml), {}};
   spm::GpuScene gpu(spm::test::device(), t.tables);
-  t.maps = spm::trace_streams(spm::test::device(), gpu, s);
+  t.maps = spm::propagate_streams(spm::test::device(), gpu, s);
   return t;
 }
 
@@ -65,7 +65,7 @@ spm::StreamSettings settings(uint32_t streams, uint32_t associated, float march_
   spm::StreamSettings s;
   s.streams = streams;
   s.associated = associated;
-  s.width = 0.5f;
+  s.stream_width = 0.5f;
   s.march_step = march_step;
   s.seed = 1234;
   return s;
@@ -249,16 +249,16 @@ TEST(Streams, SpecularCollapseKeepsTheFluxInOnePhoton) {
   auto& dev = spm::test::device();
   spm::GpuScene gpu(dev, tables);
   s.max_bounces = 2;
-  s.width = 0.5f;
-  spm::StreamTracer tracer(dev, gpu, s);
+  s.stream_width = 0.5f;
+  spm::StreamPropagator propagator(dev, gpu, s);
   spm::PhotonMaps maps;
-  tracer.emit(0, n_s);
+  propagator.emit(0, n_s);
   for (int event = 0; event < 2; ++event) {  // the mirror, then the floor
-    tracer.make_room(maps);
-    tracer.step();
+    propagator.make_room(maps);
+    propagator.step();
   }
-  const auto hits = dev.download<cl_float4>(tracer.state().event_pos, n_s);
-  tracer.flush(maps);
+  const auto hits = dev.download<cl_float4>(propagator.state().event_pos, n_s);
+  propagator.flush(maps);
   ASSERT_EQ(maps.surface.size(), n_s);
   for (const auto& r : maps.surface) {
     for (int k = 0; k < 3; ++k) ASSERT_EQ(r.position[k], hits[r.stream].s[k]) << "stream " << r.stream;
@@ -283,11 +283,11 @@ TEST(Streams, HenyeyGreensteinMeanCosineIsG) {
 struct Events {
   std::vector<cl_float4> hits, dirs;
 };
-Events step_and_flush(spm::StreamTracer& tracer, spm::Device& dev, spm::PhotonMaps& maps, uint32_t n_s) {
-  tracer.make_room(maps);
-  tracer.step();
-  Events e{dev.download<cl_float4>(tracer.state().event_pos, n_s), dev.download<cl_float4>(tracer.state().event_dir, n_s)};
-  tracer.flush(maps);
+Events step_and_flush(spm::StreamPropagator& propagator, spm::Device& dev, spm::PhotonMaps& maps, uint32_t n_s) {
+  propagator.make_room(maps);
+  propagator.step();
+  Events e{dev.download<cl_float4>(propagator.state().event_pos, n_s), dev.download<cl_float4>(propagator.state().event_dir, n_s)};
+  propagator.flush(maps);
   return e;
 }
 
@@ -307,7 +307,7 @@ std::pair<double, double> unsqueezed(const glm::dvec3& off, const glm::dvec3& d,
 TEST(Streams, OffsetsAfterAMediumEventFillTheBall) {
   const uint32_t n_a = 32, n_s = 3000;
   auto s = settings(n_s, n_a);
-  s.width = 0.5f;
+  s.stream_width = 0.5f;
   const std::string xml = R"(<scene version="3.0.0">
   <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.3"/><float name="albedo" value="1"/></medium>
   <sensor type="perspective"><ref id="fog"/></sensor>
@@ -317,22 +317,22 @@ TEST(Streams, OffsetsAfterAMediumEventFillTheBall) {
   const auto tables = tables_of(xml);
   auto& dev = spm::test::device();
   spm::GpuScene gpu(dev, tables);
-  spm::StreamTracer tracer(dev, gpu, s);
+  spm::StreamPropagator propagator(dev, gpu, s);
   spm::PhotonMaps first, second;
-  tracer.emit(0, n_s);
-  tracer.make_room(first);
-  tracer.step();
-  tracer.flush(first);
+  propagator.emit(0, n_s);
+  propagator.make_room(first);
+  propagator.step();
+  propagator.flush(first);
   std::set<uint32_t> scattered;  // streams whose first event was in the fog
   for (const auto& r : first.volume) scattered.insert(r.stream);
-  const Events e = step_and_flush(tracer, dev, second, n_s);
+  const Events e = step_and_flush(propagator, dev, second, n_s);
   std::vector<double> radii, angles;
   for (const auto& r : second.surface) {
     if (!scattered.count(r.stream)) continue;
     const glm::dvec3 x = v3(e.hits[r.stream].s);
     const glm::dvec3 d = v3(e.dirs[r.stream].s);
     if (std::abs(d.y) < 0.05) continue;  // grazing: the footprint runs far, float error grows
-    const auto [radius, angle] = unsqueezed(v3(r.position) - x, d, s.width);
+    const auto [radius, angle] = unsqueezed(v3(r.position) - x, d, s.stream_width);
     radii.push_back(radius);
     angles.push_back(angle);
   }
@@ -353,7 +353,7 @@ TEST(Streams, OffsetsAfterAMediumEventFillTheBall) {
 TEST(Streams, DepositsAreTheStreamsCrossSectionOnTheSurface) {
   const uint32_t n_a = 32, n_s = 500;
   auto s = settings(n_s, n_a);
-  s.width = 1.5f;
+  s.stream_width = 1.5f;
   const std::string xml = R"(<scene version="3.0.0">
   <shape type="rectangle"><transform name="to_world"><scale value="1000"/><rotate x="1" angle="-90"/></transform></shape>
   <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
@@ -361,11 +361,11 @@ TEST(Streams, DepositsAreTheStreamsCrossSectionOnTheSurface) {
   const auto tables = tables_of(xml);
   auto& dev = spm::test::device();
   spm::GpuScene gpu(dev, tables);
-  spm::StreamTracer tracer(dev, gpu, s);
+  spm::StreamPropagator propagator(dev, gpu, s);
   spm::PhotonMaps maps;
-  tracer.emit(0, n_s);
-  const auto phi0 = dev.download<cl_float4>(tracer.state().phi, n_s);
-  const Events e = step_and_flush(tracer, dev, maps, n_s);
+  propagator.emit(0, n_s);
+  const auto phi0 = dev.download<cl_float4>(propagator.state().phi, n_s);
+  const Events e = step_and_flush(propagator, dev, maps, n_s);
   std::vector<double> radii, angles;
   std::map<uint32_t, double> flux;
   for (const auto& r : maps.surface) {
@@ -373,7 +373,7 @@ TEST(Streams, DepositsAreTheStreamsCrossSectionOnTheSurface) {
     const glm::dvec3 d = v3(e.dirs[r.stream].s);
     const glm::dvec3 off = v3(r.position) - x;
     ASSERT_NEAR(off.y, 0.0, 1e-4 * (1.0 + glm::length(off)));  // in the tangent plane
-    const auto [radius, angle] = unsqueezed(off, d, s.width);
+    const auto [radius, angle] = unsqueezed(off, d, s.stream_width);
     radii.push_back(radius);
     angles.push_back(angle);
     flux[r.stream] += r.flux[0];
@@ -390,7 +390,7 @@ TEST(Streams, DepositsAreTheStreamsCrossSectionOnTheSurface) {
 TEST(Streams, AnAreaLightsDiskLandsWholeOnAParallelFloor) {
   const uint32_t n_a = 32, n_s = 400;
   auto s = settings(n_s, n_a);
-  s.width = 0.25f;
+  s.stream_width = 0.25f;
   const std::string xml = R"(<scene version="3.0.0">
   <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="90"/><translate y="2"/></transform>
     <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
@@ -399,15 +399,15 @@ TEST(Streams, AnAreaLightsDiskLandsWholeOnAParallelFloor) {
   const auto tables = tables_of(xml);
   auto& dev = spm::test::device();
   spm::GpuScene gpu(dev, tables);
-  spm::StreamTracer tracer(dev, gpu, s);
+  spm::StreamPropagator propagator(dev, gpu, s);
   spm::PhotonMaps maps;
-  tracer.emit(0, n_s);
-  const Events e = step_and_flush(tracer, dev, maps, n_s);
+  propagator.emit(0, n_s);
+  const Events e = step_and_flush(propagator, dev, maps, n_s);
   std::vector<double> radii;
   for (const auto& r : maps.surface) {
     const glm::dvec3 off = v3(r.position) - v3(e.hits[r.stream].s);
     ASSERT_NEAR(off.y, 0.0, 1e-5);
-    radii.push_back(std::hypot(off.x, off.z) / s.width);
+    radii.push_back(std::hypot(off.x, off.z) / s.stream_width);
   }
   ASSERT_GT(radii.size(), 5000u);
   EXPECT_LT(ks_statistic(radii, [](double r) { return r * r; }), ks_critical(radii.size()));
@@ -427,7 +427,7 @@ bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
 // they are: the sorted maps are bit-identical, and the counters agree with them.
 void expect_same_maps_in_batches(const std::string& xml, uint32_t associated, uint32_t min_flushes) {
   auto s = settings(3000, associated);
-  s.width = 2.5f;
+  s.stream_width = 2.5f;
   const auto whole = trace(xml, s);
   s.memory_budget = 200 * 1024;  // a few hundred streams per batch
   const auto split = trace(xml, s);

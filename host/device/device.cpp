@@ -284,7 +284,7 @@ DeviceBuffer Device::buffer(size_t bytes, const std::string& what, cl_mem_flags 
   cl::Buffer b(context_, flags, bytes);
   std::shared_ptr<void> lease = std::make_shared<Lease>(live_, bytes);
   if (fill_ >= 0) queue_.enqueueFillBuffer(b, static_cast<cl_uchar>(fill_), 0, bytes);
-  return DeviceBuffer(std::move(b), std::move(lease));
+  return DeviceBuffer(std::move(b), std::move(lease), what);
 }
 
 size_t Device::work_group_size(const cl::Kernel& kernel) const {

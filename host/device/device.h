@@ -59,10 +59,16 @@ struct Launch {
 class DeviceBuffer : public cl::Buffer {
  public:
   DeviceBuffer() = default;
-  DeviceBuffer(cl::Buffer buffer, std::shared_ptr<void> lease) : cl::Buffer(std::move(buffer)), lease_(std::move(lease)) {}
+  DeviceBuffer(cl::Buffer buffer, std::shared_ptr<void> lease, std::string name)
+      : cl::Buffer(std::move(buffer)), lease_(std::move(lease)), name_(std::move(name)) {}
+
+  // What the buffer holds, as Device::buffer was told: it names the
+  // buffer's transfers in the profile.
+  const std::string& name() const { return name_; }
 
  private:
   std::shared_ptr<void> lease_;
+  std::string name_;
 };
 
 class Device {
@@ -106,26 +112,28 @@ class Device {
     return used < budget_ ? budget_ - used : 0;
   }
 
+  // A read-only buffer holding `data`, named `name` (Device::buffer).
   template <class T>
-  DeviceBuffer upload(const std::vector<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
+  DeviceBuffer upload(const std::string& name, const std::vector<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
     // A zero-sized buffer is invalid in OpenCL; empty tables get one element.
     const size_t bytes = sizeof(T) * (data.empty() ? 1 : data.size());
-    DeviceBuffer b = buffer(bytes, "an upload", flags);
+    DeviceBuffer b = buffer(bytes, name, flags);
     if (!data.empty()) {
       cl::Event e;
       queue_.enqueueWriteBuffer(b, CL_TRUE, 0, sizeof(T) * data.size(), data.data(), nullptr, &e);
-      launches_.push_back({"upload", e, 0, 0, std::chrono::steady_clock::now()});
+      launches_.push_back({"upload " + name, e, 0, 0, std::chrono::steady_clock::now()});
     }
     return b;
   }
 
+  // The first `count` elements of `buffer`, labelled with its name.
   template <class T>
-  std::vector<T> download(const cl::Buffer& buffer, size_t count) {
+  std::vector<T> download(const DeviceBuffer& buffer, size_t count) {
     std::vector<T> out(count);
     if (count > 0) {
       cl::Event e;
       queue_.enqueueReadBuffer(buffer, CL_TRUE, 0, sizeof(T) * count, out.data(), nullptr, &e);
-      launches_.push_back({"download", e, 0, 0, std::chrono::steady_clock::now()});
+      launches_.push_back({"download " + buffer.name(), e, 0, 0, std::chrono::steady_clock::now()});
     }
     return out;
   }

@@ -5,7 +5,7 @@
 
 #include "render/render.h"
 #include "scene/gpu_scene.h"
-#include "spm/streams.h"
+#include "spm/propagate.h"
 #include "util/timer.h"
 
 namespace spm {
@@ -76,7 +76,7 @@ Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot
   Scene out = scene;
   IntegratorSettings& in = out.integrator;
   if (in.radius > 0.0f) {
-    if (!(in.width > 0.0f)) in.width = in.radius;  // METHOD.md 8: w = r
+    if (!(in.stream_width > 0.0f)) in.stream_width = in.radius;  // METHOD.md 8: w = r
     return out;
   }
   ScalePilot pilot;
@@ -88,10 +88,10 @@ Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot
     StreamSettings st = stream_settings(scene, rs, 0);
     // The leaders' events alone: one photon per stream, at its leader.
     st.associated = 1;
-    st.width = 0.0f;
-    StreamTracer tracer(device, gpu, st);
+    st.stream_width = 0.0f;
+    StreamPropagator propagator(device, gpu, st);
     Timer timer;
-    const PhotonMaps maps = tracer.trace(0, 0.0f);
+    const PhotonMaps maps = propagator.propagate(0, 0.0f);
     pilot.seconds = timer.lap();
     for (const auto& r : maps.volume) pilot.volume.emplace_back(r.position[0], r.position[1], r.position[2]);
     for (const auto& r : maps.surface) pilot.surface.emplace_back(r.position[0], r.position[1], r.position[2]);
@@ -100,9 +100,9 @@ Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot
   if (!(r > 0.0f)) r = scene_diagonal(scene) / 100.0f;
   in.radius = r;
   in.radius_derived = true;
-  if (!(in.width > 0.0f)) {
-    in.width = r;
-    in.width_derived = true;
+  if (!(in.stream_width > 0.0f)) {
+    in.stream_width = r;
+    in.stream_width_derived = true;
   }
   if (pilot_out) *pilot_out = std::move(pilot);
   return out;

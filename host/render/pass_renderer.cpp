@@ -6,7 +6,7 @@
 #include <cstdlib>
 
 #include "scene/integrator_options.h"
-#include "spm/gather.h"
+#include "spm/map_grids.h"
 #include "spm/maps_io.h"
 #include "util/errors.h"
 #include "util/timer.h"
@@ -15,9 +15,6 @@ namespace spm {
 
 namespace {
 
-
-// Pixels per gather launch at most: bounds the film buffer and a launch's length.
-constexpr size_t kMaxTile = size_t(1) << 22;
 
 // The device memory budget, shared out by sizes alone (never by what the
 // driver has freed so far, which varies from run to run), so that the same
@@ -34,16 +31,6 @@ StreamSettings batch_settings(const Device& device, const GpuScene& gpu, const S
   StreamSettings out = stream_settings(scene, s, 0);
   out.memory_budget = std::max<size_t>(1, std::min<size_t>(after_scene(device, gpu) / 2, size_t(1) << 30));
   return out;
-}
-
-constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uint);  // film and sphere-test count
-
-// Pixels per gather launch: the whole image when its film fits the device's
-// largest allocation, kMaxTile and its share of the budget.
-size_t gather_tile(const Device& device, const RenderSettings& s, size_t share) {
-  const size_t tile =
-      std::min<size_t>({size_t(s.width) * s.height, device.info().max_alloc / sizeof(cl_float4), kMaxTile});
-  return std::min(tile, std::max<size_t>(1, share / kBytesPerPixel));
 }
 
 // Host bytes of the maps' records.
@@ -92,17 +79,13 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       scene_(scene),
       settings_(settings),
       gpu_(device, tables),
-      tracer_(device, gpu_, batch_settings(device, gpu_, scene, settings)),
-      gather_(device.kernel("spm_gather", "spm_gather")),
-      tile_(gather_tile(device, settings, (after_scene(device, gpu_) - std::min(after_scene(device, gpu_),
-                                                                                 tracer_.bytes())) / 4)),
-      film_(device.buffer(sizeof(cl_float4) * tile_, "the film", CL_MEM_WRITE_ONLY)),
-      tests_(device.buffer(sizeof(cl_uint) * tile_, "the gather counters", CL_MEM_WRITE_ONLY)),
-      errors_(device.buffer(sizeof(cl_uint), "the gather error word")),
-      kernel_type_(kDensityKernelOption.code(scene.integrator.kernel)),
+      propagator_(device, gpu_, batch_settings(device, gpu_, scene, settings)),
+      gather_(device, gpu_, size_t(settings.width) * settings.height,
+              (after_scene(device, gpu_) - std::min(after_scene(device, gpu_), propagator_.bytes())) / 4),
+      density_kernel_(kDensityKernelOption.code(scene.integrator.density_kernel)),
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
       direct_(kDirectOption.code(scene.integrator.direct)) {
-  const size_t used = tracer_.bytes() + tile_ * kBytesPerPixel + sizeof(cl_uint);
+  const size_t used = propagator_.bytes() + gather_.bytes();
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;
   host_budget_ = host_map_budget();
   if (!tables.nodes.empty() && !tables.prims.empty()) {
@@ -166,21 +149,17 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
     out.grid_seconds += stages.lap();
     stages.stage("grid", t);
     t = stages.now();
-    for (size_t first = 0; first < pixels; first += tile_) {
-      const size_t count = std::min(tile_, pixels - first);
-      set_args(gather_, gpu_, arg("camera", gpu_.camera()), arg("film", film_), arg("tests_out", tests_),
-               arg("errors", errors_), arg("first_pixel", cl_uint(first)), arg("count", cl_uint(count)),
-               arg("spp", cl_uint(s.spp)), arg("max_depth", max_depth),
-               arg("direct_terms", cl_uint(direct_terms && k == 0)), arg("seed", cl_uint(s.seed)),
-               arg("pass", cl_uint(pass)), arg("radius", radius), arg("kernel_type", kernel_type_),
-               arg("estimator", estimator_), arg("direct", direct_), grids);
-      device_.launch(gather_, count);
-      const auto film = device_.download<cl_float4>(film_, count);
-      for (size_t i = 0; i < count; ++i) {
-        for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];
-      }
-      for (cl_uint n : device_.download<cl_uint>(tests_, count)) tests += n;
-    }
+    SpmGatherParams params{};
+    params.seed = s.seed;
+    params.pass = cl_uint(pass);
+    params.spp = cl_uint(s.spp);
+    params.max_depth = max_depth;
+    params.radius = radius;
+    params.density_kernel = density_kernel_;
+    params.estimator = estimator_;
+    params.direct = direct_;
+    params.direct_terms = direct_terms && k == 0;
+    tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();
     stages.stage("gather", t);
     ++k;
@@ -200,23 +179,21 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   out.counters.host_parts = 0;
   Timer timer;
   const Stages stages{profiler, track, &timer};
-  const cl_uint no_error = 0;
-  device_.queue().enqueueWriteBuffer(errors_, CL_FALSE, 0, sizeof no_error, &no_error);
 
   // Progressive radius (METHOD.md 6), the stream width shrinking with it.
   const float radius = pass_radius(in.radius, in.alpha, pass);
-  const float width = in.width * radius / in.radius;
+  const float width = in.stream_width * radius / in.radius;
   // The pass's streams batch by batch; their maps wait on the host until
   // they pass the host budget or the streams run out, and are then gathered
   // and dropped (the estimates are sums over records, so the parts add up
   // to the pass), which bounds the host's memory for any stream count.
-  const uint32_t streams = tracer_.settings().streams;
+  const uint32_t streams = propagator_.settings().streams;
   PhotonMaps maps;
   bool first_part = true;
   for (uint32_t first = 0; first < streams;) {
     const double t = stages.now();
-    const uint32_t count = std::min(tracer_.batch_capacity(), streams - first);
-    append(maps, tracer_.trace(static_cast<uint32_t>(pass), width, first, count));
+    const uint32_t count = std::min(propagator_.batch_capacity(), streams - first);
+    append(maps, propagator_.propagate(static_cast<uint32_t>(pass), width, first, count));
     first += count;
     out.propagate_seconds += stages.lap();
     stages.stage("propagate", t);
@@ -232,7 +209,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
     maps = PhotonMaps{};
     first_part = false;
   }
-  if (device_.download<cl_uint>(errors_, 1)[0] & SPM_ERROR_NONFINITE) {
+  if (gather_.nonfinite()) {
     throw RuntimeError("gather, pass " + std::to_string(pass) + ": a pixel's radiance is NaN or infinite");
   }
   out.counters.camera_samples = uint64_t(pixels) * s.spp;

@@ -1,4 +1,4 @@
-// One device's share of a render: the scene uploaded once, the stream tracer
+// One device's share of a render: the scene uploaded once, the stream propagator
 // and gather kernel kept across passes, and one pass at a time rendered to a
 // float image (METHOD.md 6: a pass is a full emit, propagate, grid, gather).
 #pragma once
@@ -10,7 +10,8 @@
 #include "profile/profile.h"
 #include "render/render.h"
 #include "scene/gpu_scene.h"
-#include "spm/streams.h"
+#include "spm/gather.h"
+#include "spm/propagate.h"
 #include "util/timer.h"
 
 namespace spm {
@@ -49,14 +50,12 @@ class PassRenderer {
   const Scene& scene_;
   RenderSettings settings_;
   GpuScene gpu_;
-  StreamTracer tracer_;
-  cl::Kernel gather_;
-  size_t tile_ = 0;  // pixels per gather launch: the film of a tile fits one allocation
+  StreamPropagator propagator_;
+  Gather gather_;
   size_t maps_budget_ = 0;  // device bytes the maps' grids of a pass (or of each part) may take
   glm::vec3 scene_lo_{-INFINITY}, scene_hi_{INFINITY};  // the BVH's bounds: where surface queries can be
   size_t host_budget_ = 0;  // host bytes a pass's maps may hold before they are gathered (SPM_HOST_MEMORY)
-  DeviceBuffer film_, tests_, errors_;
-  cl_uint kernel_type_, estimator_, direct_;
+  cl_uint density_kernel_, estimator_, direct_;
 };
 
 }  // namespace spm

@@ -27,7 +27,7 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   };
   check(in.streams >= 0, "streams must be at least 1 (--streams)");
   check(in.associated >= 0 && in.associated <= 65535, "associated must be in 1 .. 65535 (--associated)");
-  check(in.width >= 0.0f && std::isfinite(in.width), "the stream width must be positive (--width)");
+  check(in.stream_width >= 0.0f && std::isfinite(in.stream_width), "the stream width must be positive (--stream-width)");
   check(in.radius >= 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
   check(in.max_bounces >= -1 && in.max_bounces != 0, "max_bounces must be at least 1, or -1 for unlimited (--bounces)");
   check(in.max_depth >= -1, "max_depth must be at least -1 (-1: unlimited)");
@@ -61,7 +61,7 @@ StreamSettings stream_settings(const Scene& scene, const RenderSettings& s, int 
   StreamSettings out;
   out.streams = static_cast<uint32_t>(derived_streams(in));
   out.associated = static_cast<uint32_t>(derived_associated(in));
-  out.width = in.width;
+  out.stream_width = in.stream_width;
   out.max_bounces = limit(in.max_bounces);
   out.max_depth = limit(in.max_depth);
   out.rr_depth = static_cast<uint32_t>(in.rr_depth);
@@ -130,7 +130,7 @@ Scene sized_for_budget(const Scene& scene, RenderSettings& s, double pilot_secon
   // the surface records' spacing does, with the inverse square root.
   const float grow = std::sqrt(float(derived_streams(in)) / float(streams));
   if (in.radius_derived) in.radius *= grow;
-  if (in.width_derived) in.width *= grow;
+  if (in.stream_width_derived) in.stream_width *= grow;
   in.streams = streams;
   s.spp = std::max(1, static_cast<int>(std::lround(s.spp * f)));
   return out;
@@ -161,7 +161,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   scene = sized_for_budget(scene, s, pilot.seconds);
   if (s.announce) {
     s.announce(RenderUsed{derived_streams(scene.integrator), derived_associated(scene.integrator),
-                          scene.integrator.radius, scene.integrator.width, s.spp, s.passes, pilot.seconds});
+                          scene.integrator.radius, scene.integrator.stream_width, s.spp, s.passes, pilot.seconds});
   }
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);

@@ -190,16 +190,16 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
 }
 
 GpuScene::GpuScene(Device& device, const SceneTables& t)
-    : nodes_(device.upload(t.nodes)),
-      prims_(device.upload(t.prims)),
-      normals_(device.upload(t.normals)),
-      shapes_(device.upload(t.shapes)),
-      materials_(device.upload(t.materials)),
-      media_(device.upload(t.media)),
-      lights_(device.upload(t.lights)),
-      light_prims_(device.upload(t.light_prims)),
-      light_cdf_(device.upload(t.light_cdf)),
-      camera_(device.upload(std::vector<SpmCamera>{t.camera})),
+    : nodes_(device.upload("nodes", t.nodes)),
+      prims_(device.upload("prims", t.prims)),
+      normals_(device.upload("normals", t.normals)),
+      shapes_(device.upload("shapes", t.shapes)),
+      materials_(device.upload("materials", t.materials)),
+      media_(device.upload("media", t.media)),
+      lights_(device.upload("lights", t.lights)),
+      light_prims_(device.upload("light_prims", t.light_prims)),
+      light_cdf_(device.upload("light_cdf", t.light_cdf)),
+      camera_(device.upload("camera", std::vector<SpmCamera>{t.camera})),
       num_prims_(static_cast<cl_uint>(t.prims.size())),
       num_lights_(static_cast<cl_uint>(t.lights.size())) {
   // Device::upload gives an empty table one element.

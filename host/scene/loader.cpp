@@ -699,7 +699,7 @@ class Loader {
       }
     };
     checked_float("radius", s.radius, true);
-    checked_float("width", s.width, true);
+    checked_float("width", s.stream_width, true);
     checked_float("march_step", s.march_step, false);
     checked_float("time", s.time, false);
     const auto option = [&](const IntegratorOption& o, std::string& field) {
@@ -709,7 +709,7 @@ class Loader {
       }
     };
     option(kEstimatorOption, s.estimator);
-    option(kDensityKernelOption, s.kernel);
+    option(kDensityKernelOption, s.density_kernel);
     option(kDirectOption, s.direct);
     if (std::optional<float> a = p.get_float("alpha")) {
       if (!(*a > 0.0f && *a < 1.0f)) p.fail("alpha", "alpha must be in (0, 1)");

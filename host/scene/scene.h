@@ -89,8 +89,8 @@ struct IntegratorSettings {
   int streams = 0;
   int associated = 0;
   float radius = 0.0f;
-  float width = 0.0f;
-  bool radius_derived = false, width_derived = false;  // set by derive_scale
+  float stream_width = 0.0f;  // w (METHOD.md 1)
+  bool radius_derived = false, stream_width_derived = false;  // set by derive_scale
   int max_bounces = -1;  // diffuse bounces before a stream ends; -1: unlimited (the paper: 4)
   float march_step = 0.0f;
   int passes = 0;  // 0: as many as the sampler's sample_count needs (SCENES.md)
@@ -100,7 +100,7 @@ struct IntegratorSettings {
   int max_depth = -1;
   int rr_depth = 5;
   std::string estimator = "bre";    // bre | paper (METHOD.md 5)
-  std::string kernel = "uniform";   // uniform | epanechnikov
+  std::string density_kernel = "uniform";  // uniform | epanechnikov
   std::string direct = "nee";       // nee | photons
   float alpha = 2.0f / 3.0f;        // radius reduction of progressive passes (METHOD.md 6)
   std::string where;

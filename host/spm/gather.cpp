@@ -1,131 +1,57 @@
 #include "spm/gather.h"
 
 #include <algorithm>
-#include <cmath>
-#include <cstring>
 
 namespace spm {
 
 namespace {
 
-template <class Record>
-std::vector<glm::vec3> positions(const std::vector<Record>& records) {
-  std::vector<glm::vec3> out;
-  out.reserve(records.size());
-  for (const auto& r : records) out.emplace_back(r.position[0], r.position[1], r.position[2]);
-  return out;
-}
+// Pixels per gather launch at most: bounds the film buffer and a launch's length.
+constexpr size_t kMaxTile = size_t(1) << 22;
 
-// Three 10-bit components 512 + round(511 n) (kernels/lib/estimate.h).
-float pack_normal(const float* n) {
-  uint32_t bits = 0;
-  for (int k = 0; k < 3; ++k) {
-    const float q = 512.0f + std::round(511.0f * std::fmax(-1.0f, std::fmin(1.0f, n[k])));
-    bits |= static_cast<uint32_t>(q) << (10 * k);
-  }
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-}
-
-// value(record) for the record each grid item lists, in item order.
-template <class Record, class Value>
-std::vector<cl_float4> per_item(const RecordGrid& grid, const std::vector<Record>& records, Value value) {
-  std::vector<cl_float4> out(grid.items.size());
-  for (size_t k = 0; k < out.size(); ++k) out[k] = value(records[grid.items[k]]);
-  return out;
+size_t tile_size(const Device& device, size_t pixels, size_t share) {
+  const size_t tile = std::min<size_t>({pixels, device.info().max_alloc / sizeof(cl_float4), kMaxTile});
+  return std::min(tile, std::max<size_t>(1, share / Gather::kBytesPerPixel));
 }
 
 }  // namespace
 
-RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
-  return build_sphere_grid(positions(records), radius);
+Gather::Gather(Device& device, const GpuScene& scene, size_t pixels, size_t share)
+    : device_(device),
+      scene_(scene),
+      pixels_(pixels),
+      tile_(tile_size(device, pixels, share)),
+      kernel_(device.kernel("spm_gather", "spm_gather")),
+      film_(device.buffer(sizeof(cl_float4) * tile_, "film", CL_MEM_WRITE_ONLY)),
+      sphere_tests_(device.buffer(sizeof(cl_uint) * tile_, "sphere_tests", CL_MEM_WRITE_ONLY)),
+      errors_(device.buffer(sizeof(cl_uint), "errors")) {
+  const cl_uint no_error = 0;
+  device_.queue().enqueueWriteBuffer(errors_, CL_TRUE, 0, sizeof no_error, &no_error);
 }
 
-RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius) {
-  return build_point_grid(positions(records), kSurfaceCell * radius);
-}
-
-std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
-  return per_item(grid, records, [](const SpmVolumeRecord& r) {
-    return cl_float4{{r.position[0], r.position[1], r.position[2], float(r.depth)}};
-  });
-}
-
-std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
-  return per_item(grid, records, [](const SpmSurfaceRecord& r) {
-    return cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
-  });
-}
-
-std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
-  return per_item(grid, records,
-                  [](const SpmSurfaceRecord& r) {
-                    return cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
-                  });
-}
-
-bool QueryBounds::contains(const float* p) const {
-  for (int k = 0; k < 3; ++k) {
-    if (!(p[k] >= lo[k] && p[k] <= hi[k])) return false;
+uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& rgb) {
+  // The film of a whole image may not fit one allocation: tiles of pixels.
+  uint64_t tests = 0;
+  for (size_t first = 0; first < pixels_; first += tile_) {
+    const size_t count = std::min(tile_, pixels_ - first);
+    set_args(kernel_, scene_, arg("params", params), arg("camera", scene_.camera()), arg("film", film_),
+             arg("sphere_tests", sphere_tests_), arg("errors", errors_), arg("first_pixel", cl_uint(first)),
+             arg("count", cl_uint(count)), grids);
+    device_.launch(kernel_, count);
+    const auto film = device_.download<cl_float4>(film_, count);
+    for (size_t i = 0; i < count; ++i) {
+      for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];
+    }
+    for (cl_uint n : device_.download<cl_uint>(sphere_tests_, count)) tests += n;
   }
-  return true;
+  return tests;
 }
 
-std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
-                                                   const QueryBounds& reach) {
-  std::vector<SpmSurfaceRecord> out;
-  out.reserve(records.size());
-  for (const auto& r : records) {
-    if ((!skip_direct || (r.flags & SPM_RECORD_HAD_EVENT)) && reach.contains(r.position)) out.push_back(r);
-  }
-  return out;
-}
-
-template <class T>
-size_t vector_bytes(const std::vector<T>& v) {
-  return sizeof(T) * std::max<size_t>(1, v.size());  // Device::upload gives an empty table one element
-}
-
-size_t MapGridData::bytes() const {
-  return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
-         vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
-         vector_bytes(surface_pos) + vector_bytes(surface_flux);
-}
-
-MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface_all,
-                          float radius, bool skip_direct, const QueryBounds& reach) {
-  MapGridData d;
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct, reach);
-  d.volume = volume_grid(volume, radius);
-  d.surface = surface_grid(surface, radius);
-  d.volume_pos = volume_item_positions(d.volume, volume);
-  d.surface_pos = surface_item_positions(d.surface, surface);
-  d.surface_flux = surface_item_flux(d.surface, surface);
-  d.volume_records = std::move(volume);
-  return d;
-}
-
-MapGrids::MapGrids(Device& device, const MapGridData& d) {
-  volume_info_ = device.upload(std::vector<SpmGridInfo>{d.volume.info});
-  volume_start_ = device.upload(d.volume.cell_start);
-  volume_pos_ = device.upload(d.volume_pos);
-  volume_items_ = device.upload(d.volume.items);
-  volume_ = device.upload(d.volume_records);
-  surface_info_ = device.upload(std::vector<SpmGridInfo>{d.surface.info});
-  surface_start_ = device.upload(d.surface.cell_start);
-  surface_pos_ = device.upload(d.surface_pos);
-  surface_flux_ = device.upload(d.surface_flux);
-}
-
-cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
-  // The names of spm_gather's map arguments (kernels/spm_gather.cl).
-  const std::pair<const char*, const cl::Buffer*> buffers[] = {
-      {"volume_info", &volume_info_},   {"volume_start", &volume_start_},   {"volume_pos", &volume_pos_},
-      {"volume_items", &volume_items_}, {"volume", &volume_},               {"surface_info", &surface_info_},
-      {"surface_start", &surface_start_}, {"surface_pos", &surface_pos_},   {"surface_flux", &surface_flux_}};
-  for (const auto& [name, buffer] : buffers) bind_arg(k, i++, name, *buffer);
-  return i;
+bool Gather::nonfinite() {
+  const bool bad = device_.download<cl_uint>(errors_, 1)[0] & SPM_ERROR_NONFINITE;
+  const cl_uint no_error = 0;
+  device_.queue().enqueueWriteBuffer(errors_, CL_TRUE, 0, sizeof no_error, &no_error);
+  return bad;
 }
 
 }  // namespace spm

@@ -1,76 +1,43 @@
-// The maps as the gather kernel reads them: each map with its sphere grid
-// (host/spm/record_grid.h) and per-item arrays in cell order, bound after the
-// gather's own arguments in the order of kernels/spm_gather.cl.
+// The gather (METHOD.md 5): spm_gather over the image, tile by tile, each
+// pixel's camera samples evaluating the beam radiance and surface estimates
+// over the maps' grids (map_grids.h).
 #pragma once
 
-#include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "device/device.h"
-#include "spm/record_grid.h"
-#include "spm/streams.h"
+#include "scene/gpu_scene.h"
+#include "spm/map_grids.h"
+#include "spm_types.h"
 
 namespace spm {
 
-// Edge of the surface map's point grid cells, in gather radii. A query
-// examines about (2 + kSurfaceCell)^2 r^2 of surface for the pi r^2 it uses
-// and reads the bounds of up to (2 / kSurfaceCell + 1)^2 rows of cells.
-inline constexpr float kSurfaceCell = 1.0f;
-
-// The gather's grids: the volume map's sphere grid and the surface map's
-// point grid (host/spm/record_grid.h).
-RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
-RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius);
-
-// Grid items of the volume map: the listed record's position, its depth in w
-// (kernels/lib/estimate.h leaves out records deeper than max_depth allows).
-std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records);
-
-// Grid items of the surface map: position with the packed normal in w
-// (kernels/lib/estimate.h, unpack_normal), and the record's flux with its
-// depth in w, so that the surface estimate never reads the records themselves.
-std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
-std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
-
-// The part of space the gather's queries can reach: the scene's bounds
-// grown by the radius. A photon that lands on a tangent plane outside it
-// (a grazing stream's footprint runs far, METHOD.md 1) is within r of no
-// surface point, so no estimate could count it.
-struct QueryBounds {
-  glm::vec3 lo{-INFINITY}, hi{INFINITY};
-  bool contains(const float* p) const;
-};
-
-// The surface records the gather uses: with next-event estimation
-// (`skip_direct`), not those of streams that had no event before (METHOD.md
-// 5); and only those inside `reach`, so that the grid stays as tight as the
-// scene.
-std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
-                                                   const QueryBounds& reach = {});
-
-// The gather's grids of some map records, built on the host: the volume
-// map's sphere grid and the surface map's point grid with their per-item
-// arrays, as MapGrids uploads them.
-struct MapGridData {
-  RecordGrid volume, surface;
-  std::vector<cl_float4> volume_pos, surface_pos, surface_flux;
-  std::vector<SpmVolumeRecord> volume_records;
-  size_t bytes() const;  // device memory of the upload
-};
-
-// `surface` as the gather uses it (used_surface_records).
-MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface,
-                          float radius, bool skip_direct, const QueryBounds& reach = {});
-
-class MapGrids {
+class Gather {
  public:
-  MapGrids(Device& device, const MapGridData& data);
+  // Device bytes per pixel of a tile: its film entry and sphere-test count.
+  static constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uint);
 
-  cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
+  // An image of `pixels` pixels, gathered in launches of at most kMaxTile
+  // pixels whose buffers fit the device's largest allocation and `share`
+  // bytes of its memory.
+  Gather(Device& device, const GpuScene& scene, size_t pixels, size_t share);
+
+  size_t bytes() const { return tile_ * kBytesPerPixel + sizeof(cl_uint); }
+
+  // Adds the mean radiance of each pixel's samples over `grids` to rgb
+  // (pixels x 3); returns the sphere tests the estimates made.
+  uint64_t run(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& rgb);
+
+  // Whether a pixel's radiance was NaN or infinite since the last call.
+  bool nonfinite();
 
  private:
-  DeviceBuffer volume_info_, volume_start_, volume_pos_, volume_items_, volume_;
-  DeviceBuffer surface_info_, surface_start_, surface_pos_, surface_flux_;
+  Device& device_;
+  const GpuScene& scene_;
+  size_t pixels_ = 0, tile_ = 0;
+  cl::Kernel kernel_;
+  DeviceBuffer film_, sphere_tests_, errors_;
 };
 
 }  // namespace spm

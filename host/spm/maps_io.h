@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "spm/streams.h"
+#include "spm/propagate.h"
 
 namespace spm {
 

@@ -15,8 +15,8 @@
 /* 2D kernel normalised over the disk of radius r (d2, r2: squared distance
  * and radius): uniform 1/(pi r^2), or Epanechnikov 2/(pi r^2) (1 - d^2/r^2),
  * the smooth kernel the paper leaves to future work. */
-inline float kernel_2d(uint kernel_type, float d2, float r2) {
-  if (kernel_type == SPM_KERNEL_EPANECHNIKOV) return 2.0f * SPM_INV_PI / r2 * (1.0f - d2 / r2);
+inline float kernel_2d(uint density_kernel, float d2, float r2) {
+  if (density_kernel == SPM_KERNEL_EPANECHNIKOV) return 2.0f * SPM_INV_PI / r2 * (1.0f - d2 / r2);
   return SPM_INV_PI / r2;
 }
 
@@ -31,7 +31,7 @@ inline float kernel_2d(uint kernel_type, float d2, float r2) {
  * *tests counts the records examined (the profile's sphere tests). */
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
-                            uint kernel_type, uint estimator, uint max_rec_depth, uint* tests) {
+                            uint density_kernel, uint estimator, uint max_rec_depth, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (grid->info->records == 0 || !grid_walk_begin(grid->info, o, d, t0, t1, &walk)) return sum;
@@ -59,7 +59,7 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
         sum += flux;
       } else {
         const float cos_theta = -dot(load3(rec->direction), d);
-        sum += kernel_2d(kernel_type, d2, r2) * exp(-sigma_t * (t - t0)) * phase_hg(cos_theta, g) * flux;
+        sum += kernel_2d(density_kernel, d2, r2) * exp(-sigma_t * (t - t0)) * phase_hg(cos_theta, g) * flux;
       }
     }
   } while (grid_walk_next(grid->info, &walk));
@@ -85,7 +85,7 @@ inline float3 unpack_normal(uint bits) {
  * box [x - r, x + r] touches; the cells of one row are consecutive, and so
  * are their items. */
 inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_flux, float3 x, float3 n, float r,
-                               uint kernel_type, uint max_rec_depth) {
+                               uint density_kernel, uint max_rec_depth) {
   float3 sum = (float3)(0.0f);
   if (grid->info->records == 0) return sum;
   const float r2 = r * r;
@@ -107,7 +107,7 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
         if (dot(unpack_normal(as_uint(p.w)), n) <= 0.0f) continue;
         const float4 flux = item_flux[k];
         if (flux.w > (float)max_rec_depth) continue;
-        sum += kernel_2d(kernel_type, d3 - h * h, r2) * flux.xyz;
+        sum += kernel_2d(density_kernel, d3 - h * h, r2) * flux.xyz;
       }
     }
   }

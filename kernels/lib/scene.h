@@ -57,7 +57,7 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
   return s;
 }
 
-inline bool scene_trace(const SpmScene* s, float3 o, float3 d, float tmax, SpmHit* hit) {
+inline bool scene_intersect(const SpmScene* s, float3 o, float3 d, float tmax, SpmHit* hit) {
   return trace_closest(s->nodes, s->prims, s->num_prims, o, d, tmax, hit);
 }
 

@@ -1,4 +1,4 @@
-#include "spm/streams.h"
+#include "spm/propagate.h"
 
 #include <algorithm>
 #include <utility>
@@ -42,7 +42,7 @@ uint32_t batch_size(const Device& device, const StreamSettings& s) {
 
 }  // namespace
 
-StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSettings& settings)
+StreamPropagator::StreamPropagator(Device& device, const GpuScene& scene, const StreamSettings& settings)
     : device_(device), scene_(scene), settings_(settings) {
   if (settings_.streams == 0 || settings_.associated == 0) throw InputError("", "streams and associated must be >= 1");
   if (settings_.associated > 65535) throw InputError("", "associated photons per stream must be at most 65535");
@@ -68,18 +68,18 @@ StreamTracer::StreamTracer(Device& device, const GpuScene& scene, const StreamSe
   device_.queue().enqueueWriteBuffer(counts_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
-size_t StreamTracer::bytes() const {
+size_t StreamPropagator::bytes() const {
   return size_t(capacity_) * bytes_per_stream(settings_.associated) + sizeof(cl_uint) * SPM_COUNTERS;
 }
 
-SpmStreamParams StreamTracer::params() const {
+SpmStreamParams StreamPropagator::params() const {
   const StreamSettings& s = settings_;
   SpmStreamParams p{};
   p.seed = s.seed;
   p.pass = s.pass;
   p.pass_streams = s.streams;
   p.associated = s.associated;
-  p.stream_width = s.width;
+  p.stream_width = s.stream_width;
   p.march_step = s.march_step;
   p.max_bounces = s.max_bounces;
   p.max_depth = s.max_depth;
@@ -89,7 +89,7 @@ SpmStreamParams StreamTracer::params() const {
   return p;
 }
 
-void StreamTracer::emit(uint32_t first, uint32_t count) {
+void StreamPropagator::emit(uint32_t first, uint32_t count) {
   if (count == 0 || count > capacity_) throw RuntimeError("emit: batch of " + std::to_string(count) + " streams");
   // Every emitted stream starts in the respawn queue (spm_emit.cl).
   std::array<cl_uint, SPM_COUNT_QUEUES> queues{};
@@ -105,7 +105,7 @@ void StreamTracer::emit(uint32_t first, uint32_t count) {
   live_bound_ = count;
 }
 
-uint32_t StreamTracer::step() {
+uint32_t StreamPropagator::step() {
   if (live_bound_ == 0) return 0;
   const SpmStreamParams p = params();
   // The loop of METHOD.md 3. Last iteration's next live queue is this one's
@@ -155,7 +155,7 @@ uint32_t StreamTracer::step() {
   return live_bound_;
 }
 
-void StreamTracer::make_room(PhotonMaps& maps) {
+void StreamPropagator::make_room(PhotonMaps& maps) {
   const size_t volume = size_t(counters_[SPM_COUNT_VOLUME]) + live_bound_;
   const size_t surface = size_t(counters_[SPM_COUNT_SURFACE]) + size_t(live_bound_) * settings_.associated;
   if (volume > volume_capacity_ || surface > surface_capacity_) {
@@ -164,12 +164,12 @@ void StreamTracer::make_room(PhotonMaps& maps) {
   }
 }
 
-void StreamTracer::read_counters() {
+void StreamPropagator::read_counters() {
   device_.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, sizeof(cl_uint) * SPM_COUNTERS, counters_.data());
 }
 
 
-void StreamTracer::flush(PhotonMaps& maps) {
+void StreamPropagator::flush(PhotonMaps& maps) {
   read_counters();
   const auto volume = device_.download<SpmVolumeRecord>(volume_, counters_[SPM_COUNT_VOLUME]);
   const auto surface = device_.download<SpmSurfaceRecord>(surface_, counters_[SPM_COUNT_SURFACE]);
@@ -187,11 +187,11 @@ void StreamTracer::flush(PhotonMaps& maps) {
                                      counters_.data() + SPM_COUNT_QUEUES);
 }
 
-PhotonMaps StreamTracer::trace(uint32_t pass, float width) { return trace(pass, width, 0, settings_.streams); }
+PhotonMaps StreamPropagator::propagate(uint32_t pass, float width) { return propagate(pass, width, 0, settings_.streams); }
 
-PhotonMaps StreamTracer::trace(uint32_t pass, float width, uint32_t begin, uint32_t streams) {
+PhotonMaps StreamPropagator::propagate(uint32_t pass, float width, uint32_t begin, uint32_t streams) {
   settings_.pass = pass;
-  settings_.width = width;
+  settings_.stream_width = width;
   PhotonMaps maps;
   maps.stats.batch_size = capacity_;
   const uint32_t end = std::min(settings_.streams, begin + streams);
@@ -213,8 +213,8 @@ PhotonMaps StreamTracer::trace(uint32_t pass, float width, uint32_t begin, uint3
   return maps;
 }
 
-PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings) {
-  return StreamTracer(device, scene, settings).trace(settings.pass, settings.width);
+PhotonMaps propagate_streams(Device& device, const GpuScene& scene, const StreamSettings& settings) {
+  return StreamPropagator(device, scene, settings).propagate(settings.pass, settings.stream_width);
 }
 
 }  // namespace spm

@@ -18,7 +18,7 @@ namespace spm {
 struct StreamSettings {
   uint32_t streams = 10000;    // N_s in the pass
   uint32_t associated = 100;   // N_a per stream
-  float width = 2.5f;          // w: respawn sphere / deposit disk radius
+  float stream_width = 2.5f;   // w: radius of the ball and disk of offsets (METHOD.md 1)
   uint32_t max_bounces = 4;    // diffuse bounces before a stream ends; SPM_NONE: unlimited
   uint32_t max_depth = SPM_NONE;  // METHOD.md 10: longest path in segments; SPM_NONE: unlimited
   uint32_t rr_depth = 5;       // Russian roulette from this path vertex on
@@ -44,9 +44,9 @@ struct PhotonMaps {
 
 // Stream propagation on one device, batch by batch; trace() runs a whole
 // pass, tests drive emit/make_room/step/flush themselves to look inside.
-class StreamTracer {
+class StreamPropagator {
  public:
-  StreamTracer(Device& device, const GpuScene& scene, const StreamSettings& settings);
+  StreamPropagator(Device& device, const GpuScene& scene, const StreamSettings& settings);
 
   uint32_t batch_capacity() const { return capacity_; }
 
@@ -54,12 +54,12 @@ class StreamTracer {
   size_t bytes() const;
 
   // All N_s streams of pass `pass` with stream width `width`, batch by batch;
-  // the maps come back ordered. The tracer's buffers serve every pass.
-  PhotonMaps trace(uint32_t pass, float width);
+  // the maps come back ordered. The propagator's buffers serve every pass.
+  PhotonMaps propagate(uint32_t pass, float width);
 
   // Streams [first, first + count) of the pass alone: the maps of
   // consecutive ranges, concatenated, are those of the whole pass.
-  PhotonMaps trace(uint32_t pass, float width, uint32_t first, uint32_t count);
+  PhotonMaps propagate(uint32_t pass, float width, uint32_t first, uint32_t count);
 
   const StreamSettings& settings() const { return settings_; }
 
@@ -81,7 +81,7 @@ class StreamTracer {
   uint32_t live_bound() const { return live_bound_; }
 
   // Moves the records written so far, and the counters, to `maps` (records
-  // in device order; trace_streams sorts them).
+  // in device order; propagate_streams sorts them).
   void flush(PhotonMaps& maps);
 
   // For tests: the batch's buffers as they are now.
@@ -106,6 +106,6 @@ class StreamTracer {
 };
 
 // All N_s streams of pass settings.pass, in batches sized to the device's memory.
-PhotonMaps trace_streams(Device& device, const GpuScene& scene, const StreamSettings& settings);
+PhotonMaps propagate_streams(Device& device, const GpuScene& scene, const StreamSettings& settings);
 
 }  // namespace spm

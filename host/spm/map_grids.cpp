@@ -1,0 +1,127 @@
+#include "spm/map_grids.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace spm {
+
+namespace {
+
+template <class Record>
+std::vector<glm::vec3> positions(const std::vector<Record>& records) {
+  std::vector<glm::vec3> out;
+  out.reserve(records.size());
+  for (const auto& r : records) out.emplace_back(r.position[0], r.position[1], r.position[2]);
+  return out;
+}
+
+// Three 10-bit components 512 + round(511 n) (kernels/lib/estimate.h).
+float pack_normal(const float* n) {
+  uint32_t bits = 0;
+  for (int k = 0; k < 3; ++k) {
+    const float q = 512.0f + std::round(511.0f * std::fmax(-1.0f, std::fmin(1.0f, n[k])));
+    bits |= static_cast<uint32_t>(q) << (10 * k);
+  }
+  float f;
+  std::memcpy(&f, &bits, sizeof f);
+  return f;
+}
+
+// value(record) for the record each grid item lists, in item order.
+template <class Record, class Value>
+std::vector<cl_float4> per_item(const RecordGrid& grid, const std::vector<Record>& records, Value value) {
+  std::vector<cl_float4> out(grid.items.size());
+  for (size_t k = 0; k < out.size(); ++k) out[k] = value(records[grid.items[k]]);
+  return out;
+}
+
+}  // namespace
+
+RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
+  return build_sphere_grid(positions(records), radius);
+}
+
+RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius) {
+  return build_point_grid(positions(records), kSurfaceCell * radius);
+}
+
+std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
+  return per_item(grid, records, [](const SpmVolumeRecord& r) {
+    return cl_float4{{r.position[0], r.position[1], r.position[2], float(r.depth)}};
+  });
+}
+
+std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
+  return per_item(grid, records, [](const SpmSurfaceRecord& r) {
+    return cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
+  });
+}
+
+std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
+  return per_item(grid, records,
+                  [](const SpmSurfaceRecord& r) {
+                    return cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
+                  });
+}
+
+bool QueryBounds::contains(const float* p) const {
+  for (int k = 0; k < 3; ++k) {
+    if (!(p[k] >= lo[k] && p[k] <= hi[k])) return false;
+  }
+  return true;
+}
+
+std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
+                                                   const QueryBounds& reach) {
+  std::vector<SpmSurfaceRecord> out;
+  out.reserve(records.size());
+  for (const auto& r : records) {
+    if ((!skip_direct || (r.flags & SPM_RECORD_HAD_EVENT)) && reach.contains(r.position)) out.push_back(r);
+  }
+  return out;
+}
+
+template <class T>
+size_t vector_bytes(const std::vector<T>& v) {
+  return sizeof(T) * std::max<size_t>(1, v.size());  // Device::upload gives an empty table one element
+}
+
+size_t MapGridData::bytes() const {
+  return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
+         vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
+         vector_bytes(surface_pos) + vector_bytes(surface_flux);
+}
+
+MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface_all,
+                          float radius, bool skip_direct, const QueryBounds& reach) {
+  MapGridData d;
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct, reach);
+  d.volume = volume_grid(volume, radius);
+  d.surface = surface_grid(surface, radius);
+  d.volume_pos = volume_item_positions(d.volume, volume);
+  d.surface_pos = surface_item_positions(d.surface, surface);
+  d.surface_flux = surface_item_flux(d.surface, surface);
+  d.volume_records = std::move(volume);
+  return d;
+}
+
+MapGrids::MapGrids(Device& device, const MapGridData& d)
+    : volume_info(device.upload("volume_info", std::vector<SpmGridInfo>{d.volume.info})),
+      volume_start(device.upload("volume_start", d.volume.cell_start)),
+      volume_pos(device.upload("volume_pos", d.volume_pos)),
+      volume_items(device.upload("volume_items", d.volume.items)),
+      volume(device.upload("volume", d.volume_records)),
+      surface_info(device.upload("surface_info", std::vector<SpmGridInfo>{d.surface.info})),
+      surface_start(device.upload("surface_start", d.surface.cell_start)),
+      surface_pos(device.upload("surface_pos", d.surface_pos)),
+      surface_flux(device.upload("surface_flux", d.surface_flux)) {}
+
+cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
+#define SPM_MAP_BIND(type, name) bind_arg(k, i++, #name, name);
+  SPM_MAP_BUFFERS(SPM_MAP_BIND)
+#undef SPM_MAP_BIND
+  return i;
+}
+
+}  // namespace spm

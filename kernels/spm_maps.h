@@ -1,0 +1,24 @@
+/* The gather's map buffers (METHOD.md 5), listed ONCE: spm_gather takes them
+ * as SPM_MAP_PARAMS and the host uploads and binds them from the same list
+ * (host/spm/map_grids.h), so they cannot disagree.
+ * X(type, name): one read-only buffer of `type`. */
+#ifndef SPM_MAPS_H
+#define SPM_MAPS_H
+
+#define SPM_MAP_BUFFERS(X)                                                                   \
+  X(SpmGridInfo, volume_info)  /* the volume map's sphere grid */                            \
+  X(uint, volume_start)        /* its cells' first items (CSR) */                            \
+  X(float4, volume_pos)        /* per item: the record's position; w: its depth */           \
+  X(uint, volume_items)        /* per item: the record's index */                            \
+  X(SpmVolumeRecord, volume)   /* the records */                                             \
+  X(SpmGridInfo, surface_info) /* the surface map's point grid */                            \
+  X(uint, surface_start)       /* its cells' first items (CSR) */                            \
+  X(float4, surface_pos)       /* per item: position; w: the packed normal */                \
+  X(float4, surface_flux)      /* per item: flux; w: depth */
+
+#ifdef __OPENCL_VERSION__
+#define SPM_MAP_PARAM(type, name) , const __global type *name
+#define SPM_MAP_PARAMS SPM_MAP_BUFFERS(SPM_MAP_PARAM)
+#endif
+
+#endif
