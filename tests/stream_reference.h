@@ -1,8 +1,11 @@
 // A sequential C++ reference of one photon stream's life (METHOD.md 2-4, 7):
 // emit, then march / interact / deposit / absorb until the stream ends, with
-// the same Philox counters as the kernels (spm_emit.cl ... spm_compact.cl) and
-// the same float formulas, so that its records equal the device's up to float
-// rounding. Intersections are a brute-force loop over every primitive.
+// the same Philox counters as the kernels (spm_emit.cl ... spm_respawn.cl) and
+// their own sampling, BSDF, phase and intersection helpers (kernels/lib/,
+// compiled as C++ by cl_compat.h), so that its records equal the device's up
+// to float rounding. What it checks is the kernels' control flow: the order
+// of events and draws, the branches, counts and weights. Intersections are a
+// brute-force loop over every primitive, which checks the BVH too.
 //
 // Device and host transcendental functions may differ in the last bits, so a
 // discrete decision (a uniform number against a threshold, a ray against a

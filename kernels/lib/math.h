@@ -6,7 +6,16 @@
 #define SPM_INV_PI 0.31830988618379067154f
 #define SPM_INF INFINITY
 
-inline float3 load3(const __global float* p) { return (float3)(p[0], p[1], p[2]); }
+/* Vector literals. OpenCL C's (float3)(x, y, z) is a comma expression in
+ * C++, where tests/cl_compat.h compiles these headers for the stream
+ * reference and defines the macros as C++ constructions instead. */
+#ifdef __OPENCL_VERSION__
+#define SPM_F2(x, y) ((float2)(x, y))
+#define SPM_F3(x, y, z) ((float3)(x, y, z))
+#define SPM_F4(x, y, z, w) ((float4)(x, y, z, w))
+#endif
+
+inline float3 load3(const __global float* p) { return SPM_F3(p[0], p[1], p[2]); }
 
 inline float max_comp(float3 v) { return fmax(v.x, fmax(v.y, v.z)); }
 inline float mean_comp(float3 v) { return (v.x + v.y + v.z) * (1.0f / 3.0f); }
@@ -16,8 +25,8 @@ inline void make_basis(float3 n, float3* t, float3* b) {
   const float sign = copysign(1.0f, n.z);
   const float a = -1.0f / (sign + n.z);
   const float c = n.x * n.y * a;
-  *t = (float3)(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
-  *b = (float3)(c, sign + n.y * n.y * a, -n.y);
+  *t = SPM_F3(1.0f + sign * n.x * n.x * a, sign * c, -sign * n.x);
+  *b = SPM_F3(c, sign + n.y * n.y * a, -n.y);
 }
 
 inline float3 to_world(float3 v, float3 n) {

@@ -23,7 +23,7 @@ inline float3 sample_phase(float3 d, float g, float u1, float u2) {
   }
   const float sin_theta = sqrt(fmax(0.0f, 1.0f - cos_theta * cos_theta));
   const float phi = 2.0f * SPM_PI * u2;
-  return normalize(to_world((float3)(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta), d));
+  return normalize(to_world(SPM_F3(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta), d));
 }
 
 #endif

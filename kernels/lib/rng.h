@@ -6,6 +6,7 @@
 #define SPM_LIB_RNG_H
 
 #include "Random123/philox.h"
+#include "math.h"
 
 /* Purposes: one counter lane each, so that draws for different decisions of
  * the same event never share numbers. */
@@ -44,7 +45,7 @@ inline float4 rng4(SpmRng r, uint purpose, uint lane) {
   philox4x32_key_t k = {{r.seed, r.pass}};
   philox4x32_ctr_t c = {{r.id, r.event, purpose, lane}};
   philox4x32_ctr_t x = philox4x32(c, k);
-  return (float4)(u01(x.v[0]), u01(x.v[1]), u01(x.v[2]), u01(x.v[3]));
+  return SPM_F4(u01(x.v[0]), u01(x.v[1]), u01(x.v[2]), u01(x.v[3]));
 }
 
 #endif

@@ -8,7 +8,7 @@
 inline float3 sample_cosine_hemisphere(float u1, float u2) {
   const float r = sqrt(u1);
   const float phi = 2.0f * SPM_PI * u2;
-  return (float3)(r * cos(phi), r * sin(phi), sqrt(fmax(0.0f, 1.0f - u1)));
+  return SPM_F3(r * cos(phi), r * sin(phi), sqrt(fmax(0.0f, 1.0f - u1)));
 }
 
 /* Uniform direction on the unit sphere: pdf 1/(4 pi). */
@@ -16,7 +16,7 @@ inline float3 sample_uniform_sphere(float u1, float u2) {
   const float z = 1.0f - 2.0f * u1;
   const float r = sqrt(fmax(0.0f, 1.0f - z * z));
   const float phi = 2.0f * SPM_PI * u2;
-  return (float3)(r * cos(phi), r * sin(phi), z);
+  return SPM_F3(r * cos(phi), r * sin(phi), z);
 }
 
 /* Uniform direction in the cone cos(theta) >= cos_max about +z. */
@@ -24,14 +24,14 @@ inline float3 sample_uniform_cone(float u1, float u2, float cos_max) {
   const float z = 1.0f - u1 * (1.0f - cos_max);
   const float r = sqrt(fmax(0.0f, 1.0f - z * z));
   const float phi = 2.0f * SPM_PI * u2;
-  return (float3)(r * cos(phi), r * sin(phi), z);
+  return SPM_F3(r * cos(phi), r * sin(phi), z);
 }
 
 /* Uniform point in the unit disk (radial CDF r^2). */
 inline float2 sample_disk(float u1, float u2) {
   const float r = sqrt(u1);
   const float phi = 2.0f * SPM_PI * u2;
-  return (float2)(r * cos(phi), r * sin(phi));
+  return SPM_F2(r * cos(phi), r * sin(phi));
 }
 
 /* Uniform point in the unit ball (radial CDF r^3). */
@@ -42,7 +42,7 @@ inline float3 sample_ball(float u1, float u2, float u3) {
 /* Uniform barycentrics (b1, b2) on a triangle. */
 inline float2 sample_triangle(float u1, float u2) {
   const float s = sqrt(u1);
-  return (float2)(1.0f - s, u2 * s);
+  return SPM_F2(1.0f - s, u2 * s);
 }
 
 /* Inverse error function, single precision (M. Giles, "Approximating the erfinv
