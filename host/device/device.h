@@ -129,13 +129,20 @@ class Device {
   // The first `count` elements of `buffer`, labelled with its name.
   template <class T>
   std::vector<T> download(const DeviceBuffer& buffer, size_t count) {
-    std::vector<T> out(count);
-    if (count > 0) {
-      cl::Event e;
-      queue_.enqueueReadBuffer(buffer, CL_TRUE, 0, sizeof(T) * count, out.data(), nullptr, &e);
-      launches_.push_back({"download " + buffer.name(), e, 0, 0, std::chrono::steady_clock::now()});
-    }
+    std::vector<T> out;
+    download_append(buffer, count, out);
     return out;
+  }
+
+  // The same, appended to `out` in place (no copy of large maps).
+  template <class T>
+  void download_append(const DeviceBuffer& buffer, size_t count, std::vector<T>& out) {
+    if (count == 0) return;
+    const size_t at = out.size();
+    out.resize(at + count);
+    cl::Event e;
+    queue_.enqueueReadBuffer(buffer, CL_TRUE, 0, sizeof(T) * count, out.data() + at, nullptr, &e);
+    launches_.push_back({"download " + buffer.name(), e, 0, 0, std::chrono::steady_clock::now()});
   }
 
   size_t work_group_size(const cl::Kernel& kernel) const;

@@ -41,6 +41,10 @@ size_t map_bytes(const PhotonMaps& m) {
 // Appends the maps of the next streams: both stay ordered by (stream,
 // depth), and the statistics add up.
 void append(PhotonMaps& to, PhotonMaps&& from) {
+  if (to.stats.batches == 0) {  // nothing yet: take the maps without copying them
+    to = std::move(from);
+    return;
+  }
   to.volume.insert(to.volume.end(), from.volume.begin(), from.volume.end());
   to.surface.insert(to.surface.end(), from.surface.begin(), from.surface.end());
   to.stats.batches += from.stats.batches;

@@ -171,10 +171,8 @@ void StreamPropagator::read_counters() {
 
 void StreamPropagator::flush(PhotonMaps& maps) {
   read_counters();
-  const auto volume = device_.download<SpmVolumeRecord>(volume_, counters_[SPM_COUNT_VOLUME]);
-  const auto surface = device_.download<SpmSurfaceRecord>(surface_, counters_[SPM_COUNT_SURFACE]);
-  maps.volume.insert(maps.volume.end(), volume.begin(), volume.end());
-  maps.surface.insert(maps.surface.end(), surface.begin(), surface.end());
+  device_.download_append(volume_, counters_[SPM_COUNT_VOLUME], maps.volume);
+  device_.download_append(surface_, counters_[SPM_COUNT_SURFACE], maps.surface);
   for (int k = SPM_COUNT_QUEUES; k < SPM_COUNTERS; ++k) {
     maps.stats.counters[k] += counters_[k];
     counters_[k] = 0;
