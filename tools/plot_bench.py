@@ -30,12 +30,22 @@ def main():
     cases = bench["cases"]
     os.makedirs(args.out_dir, exist_ok=True)
 
-    # Per-kernel device time, stacked per case.
-    labels = sorted({k for c in cases for k in c["kernel_ms"]})
+    # Per-kernel device time, stacked per case; transfers ("upload film",
+    # "download volume", ...) in one bar segment each way.
+    def group(label):
+        return label.split(" ", 1)[0]
+
+    grouped = []
+    for c in cases:
+        ms = {}
+        for label, value in c["kernel_ms"].items():
+            ms[group(label)] = ms.get(group(label), 0.0) + value
+        grouped.append(ms)
+    labels = sorted({k for ms in grouped for k in ms})
     fig, ax = plt.subplots(figsize=(8, 4.5))
     bottom = [0.0] * len(cases)
     for label in labels:
-        values = [c["kernel_ms"].get(label, 0.0) for c in cases]
+        values = [ms.get(label, 0.0) for ms in grouped]
         ax.bar([c["name"] for c in cases], values, bottom=bottom, label=label)
         bottom = [b + v for b, v in zip(bottom, values)]
     ax.set_ylabel("device time per pass, ms (median)")

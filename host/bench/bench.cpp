@@ -72,6 +72,7 @@ void write_outputs(const BenchOptions& o, const std::vector<BenchCase>& cases) {
                             {"gather_s", c.gather},
                             {"total_s", c.total},
                             {"kernel_ms", c.kernel_ms},
+                            {"kernel_occupancy", c.kernel_occupancy},
                             {"live_per_iteration", c.live},
                             {"volume_records", c.volume_records},
                             {"surface_records", c.surface_records}});
@@ -106,7 +107,10 @@ std::vector<BenchCase> run_bench(Device& device, const BenchOptions& o) {
       grid.push_back(st.grid_seconds);
       gather.push_back(st.gather_seconds);
       total.push_back(st.seconds);
-      for (const auto& [label, t] : profiler.kernels()) kernels[label].push_back(t.total_ms);
+      for (const auto& [label, t] : profiler.kernels()) {
+        kernels[label].push_back(t.total_ms);
+        if (t.work_items > 0) out.kernel_occupancy[label] = double(t.items) / double(t.work_items);
+      }
       const auto j = profiler.json();
       out.live = j["passes_detail"][0]["live_per_iteration"].get<std::vector<uint32_t>>();
       out.volume_records = j["counters"]["records"]["volume"];

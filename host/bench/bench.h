@@ -26,6 +26,7 @@ struct BenchCase {
   // Medians over the repetitions, seconds.
   double propagate = 0, grid = 0, gather = 0, total = 0;
   std::map<std::string, double> kernel_ms;  // median device time per kernel label
+  std::map<std::string, double> kernel_occupancy;  // items with work / launched work-items, last repetition
   std::vector<uint32_t> live;               // wavefront occupancy of the last repetition
   uint64_t volume_records = 0, surface_records = 0;
 };
