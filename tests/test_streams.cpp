@@ -4,14 +4,17 @@
 // is a multiple of the standard error or a KS critical value at 0.001.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <random>
 #include <set>
 #include <sstream>
 
 #include "scene/loader.h"
 #include "spm/propagate.h"
+#include "spm/record_order.h"
 #include "stats.h"
 #include "test_support.h"
 
@@ -451,6 +454,65 @@ TEST(Streams, FullMapBuffersAreFlushedNotDropped) {
   // In a closed bright box every event deposits: the surface buffer (room for
   // one iteration) fills within a batch and must be downloaded mid-batch.
   expect_same_maps_in_batches(diffuse_box("0.9"), 20, 1);
+}
+
+// The order the maps are put in (host/spm/record_order.h) rests on the
+// kernels appending each stream's records in (event, photon) order: here the
+// records come back as the device appended them, across mid-batch flushes,
+// and grouping them by stream alone must give strictly increasing keys, the
+// order a full sort by (stream, event, photon) gives.
+TEST(Streams, DeviceAppendsEachStreamsRecordsInOrder) {
+  const Traced t{tables_of(diffuse_box("0.9")), {}};
+  spm::GpuScene gpu(spm::test::device(), t.tables);
+  const auto s = settings(3000, 20);
+  spm::StreamPropagator propagator(spm::test::device(), gpu, s);
+  ASSERT_GE(propagator.batch_capacity(), s.streams);
+  spm::PhotonMaps raw;
+  propagator.emit(0, s.streams);
+  while (propagator.live_bound() > 0) {
+    propagator.make_room(raw);
+    propagator.step();
+  }
+  propagator.flush(raw);
+  EXPECT_GE(raw.stats.flushes, 1u) << "the test needs a mid-batch flush";
+  const auto volume_key = [](const SpmVolumeRecord& r) { return uint64_t(r.stream) << 32 | r.depth; };
+  const auto surface_key = [](const SpmSurfaceRecord& r) { return uint64_t(r.stream) << 32 | r.depth_photon; };
+  auto volume = raw.volume;
+  auto surface = raw.surface;
+  ASSERT_GT(surface.size(), 10000u);
+  ASSERT_FALSE(std::is_sorted(surface.begin(), surface.end(),
+                              [&](const auto& a, const auto& b) { return surface_key(a) < surface_key(b); }))
+      << "the device's order should be scrambled by its atomics";
+  spm::order_by_stream(volume, 0, s.streams);
+  spm::order_by_stream(surface, 0, s.streams);
+  for (size_t i = 1; i < volume.size(); ++i) ASSERT_LT(volume_key(volume[i - 1]), volume_key(volume[i])) << i;
+  for (size_t i = 1; i < surface.size(); ++i) ASSERT_LT(surface_key(surface[i - 1]), surface_key(surface[i])) << i;
+  // And propagate() gives those maps.
+  const auto whole = propagator.propagate(0, s.stream_width);
+  EXPECT_TRUE(same_bytes(whole.volume, volume));
+  EXPECT_TRUE(same_bytes(whole.surface, surface));
+}
+
+TEST(RecordOrder, GroupsByStreamStably) {
+  struct Rec {
+    uint32_t stream, seq;
+  };
+  std::mt19937 rng(11);
+  std::vector<Rec> recs(5000);
+  for (uint32_t i = 0; i < recs.size(); ++i) recs[i] = {100 + uint32_t(rng() % 300), i};
+  auto want = recs;
+  std::stable_sort(want.begin(), want.end(), [](const Rec& a, const Rec& b) { return a.stream < b.stream; });
+  spm::order_by_stream(recs, 100, 300);
+  ASSERT_EQ(recs.size(), want.size());
+  for (size_t i = 0; i < recs.size(); ++i) {
+    ASSERT_EQ(recs[i].stream, want[i].stream) << i;
+    ASSERT_EQ(recs[i].seq, want[i].seq) << i;
+  }
+  std::vector<Rec> outside{{99, 0}};
+  EXPECT_THROW(spm::order_by_stream(outside, 100, 300), spm::RuntimeError);
+  std::vector<Rec> none;
+  spm::order_by_stream(none, 0, 0);
+  EXPECT_TRUE(none.empty());
 }
 
 }  // namespace

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <utility>
 
+#include "spm/record_order.h"
 #include "util/errors.h"
-#include "util/radix_sort.h"
 
 namespace spm {
 
@@ -206,8 +206,8 @@ PhotonMaps StreamPropagator::propagate(uint32_t pass, float width, uint32_t begi
   }
   // Appends raced on the device; (stream, event[, photon]) is a total order
   // independent of it, so the maps and every sum over them are deterministic.
-  sort_by_key(maps.volume, [](const SpmVolumeRecord& r) { return uint64_t(r.stream) << 32 | r.depth; });
-  sort_by_key(maps.surface, [](const SpmSurfaceRecord& r) { return uint64_t(r.stream) << 32 | r.depth_photon; });
+  order_by_stream(maps.volume, begin, end - begin);
+  order_by_stream(maps.surface, begin, end - begin);
   return maps;
 }
 
