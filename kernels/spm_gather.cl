@@ -73,6 +73,56 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   return load3(m->reflectance) * SPM_INV_PI * cos_x * li * tr;
 }
 
+/* Single scattering towards the camera along [t0, t1] of a ray through
+ * `medium`, by next-event estimation (METHOD.md 5): a light point y picked
+ * by power, then two distances along the ray, one equi-angular about y
+ * (Kulla and Fajardo 2012: sharp where the ray passes the light) and one by
+ * free flight truncated to the segment (where transmittance dominates),
+ * combined by the balance heuristic, each with a shadow ray that carries
+ * transmittance. The photon records of streams without an earlier event
+ * are left out of the volume estimate instead (host/spm/map_grids.cpp). */
+inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1, SpmRng rng) {
+  const __global SpmMedium* m = &s->media[medium];
+  const float3 sigma_t = load3(m->sigma_t);
+  const float3 sigma_s = sigma_t * load3(m->albedo);
+  if (max_comp(sigma_s) <= 0.0f || !(t1 > t0)) return (float3)(0.0f);
+  const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
+  float3 y, yn;
+  float prob;
+  const __global SpmLight* l = sample_light_point(s, rng4(rng, SPM_RNG_MEDIUM_NEE, 0), &y, &yn, &prob);
+  const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
+  /* Equi-angular: t = delta + D tan(theta), theta uniform between the
+   * segment's ends as seen from y, at distance D from the ray. */
+  const float delta = dot(y - o, d);
+  const float D = length(y - (o + delta * d));
+  const bool angular = D > 0.0f;
+  const float th0 = atan2(t0 - delta, D);
+  const float th1 = isinf(t1) ? 0.5f * SPM_PI : atan2(t1 - delta, D);
+  /* Free flight with the mean extinction (METHOD.md 3), truncated to the
+   * segment: `mass` is its probability of an event within it. */
+  const float sigma = mean_comp(sigma_t);
+  const float mass = isinf(t1) ? 1.0f : -expm1(-sigma * (t1 - t0));
+  const bool flight = sigma > 0.0f && mass > 0.0f;
+  float3 sum = (float3)(0.0f);
+  for (int k = 0; k < 2; ++k) {
+    if (k == 0 ? !angular : !flight) continue;
+    const float t = k == 0 ? delta + D * tan(th0 + u.x * (th1 - th0)) : t0 - log1p(-u.y * mass) / sigma;
+    if (!(t >= t0 && t <= t1)) continue;
+    const float pdf_angular = angular ? D / ((th1 - th0) * (D * D + (t - delta) * (t - delta))) : 0.0f;
+    const float pdf_flight = flight ? sigma * exp(-sigma * (t - t0)) / mass : 0.0f;
+    const float3 x = o + t * d;
+    float3 wi;
+    float dist;
+    const float3 li = light_incident(l, x, y, yn, prob, &wi, &dist);
+    if (max_comp(li) <= 0.0f) continue;
+    /* Stop short of an area light's own surface; point lights have none. */
+    const float reach = dot(yn, yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
+    const float3 tr = shadow_transmittance(s, x, wi, reach, medium);
+    sum += exp(-sigma_t * (t - t0)) * sigma_s * phase_hg(dot(wi, d), g) * li * tr / (pdf_angular + pdf_flight);
+  }
+  return sum;
+}
+
 /* Specular vertices a camera path follows at most: a safety cap, so that
  * the vertices of a sample (null crossings included, at most 4 per specular
  * one) fit the block of 256 RNG events each sample has. */
@@ -109,6 +159,10 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
                                 t_end, maps->radius, maps->density_kernel, maps->estimator,
                                 record_depth_limit(max_depth, specular), tests);
+      /* Single scattering makes the path specular + 2 segments long. */
+      if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
+        L += beta * inscatter_nee(s, medium, o, d, tmin, t_end, rng);
+      }
     }
     /* Escaping: outside a medium there is no environment light in the
      * supported subset, inside one the light has all been gathered. */

@@ -96,6 +96,12 @@ size_t MapGridData::bytes() const {
 MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface_all,
                           float radius, bool skip_direct, const QueryBounds& reach) {
   MapGridData d;
+  if (skip_direct) {
+    // Single scattering comes from next-event estimation (spm_gather.cl,
+    // inscatter_nee): a volume record at path vertex 1 has no earlier event.
+    volume.erase(std::remove_if(volume.begin(), volume.end(), [](const SpmVolumeRecord& r) { return r.depth <= 1; }),
+                 volume.end());
+  }
   const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct, reach);
   d.volume = volume_grid(volume, radius);
   d.surface = surface_grid(surface, radius);

@@ -59,7 +59,9 @@ struct MapGridData {
   size_t bytes() const;  // device memory of the upload
 };
 
-// `surface` as the gather uses it (used_surface_records).
+// `surface` as the gather uses it (used_surface_records); with next-event
+// estimation (`skip_direct`) the volume records of streams without an
+// earlier event (depth 1) are left out too.
 MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface,
                           float radius, bool skip_direct, const QueryBounds& reach = {});
 

@@ -44,32 +44,47 @@ inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* 
   if (s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS) *n = -*n;
 }
 
-/* Next-event estimation from x: a point on a light chosen by power. Returns the
- * incident radiance divided by the sampling pdf (per unit solid angle at x,
- * cosine at x not included), or 0; *wi and *dist give the shadow ray. */
-inline float3 sample_light_incident(const SpmScene* s, float3 x, float4 u, float3* wi, float* dist,
-                                    float3* light_p, float3* light_n) {
-  float prob;
-  const __global SpmLight* l = &s->lights[pick_light(s, u.x, &prob)];
+/* A point on a light picked by power (METHOD.md 2): its position and, for
+ * an area light, its normal on the emitting side (0 for point and spot
+ * lights); *prob is the light's pick probability. */
+inline const __global SpmLight* sample_light_point(const SpmScene* s, float4 u, float3* p, float3* n, float* prob) {
+  const __global SpmLight* l = &s->lights[pick_light(s, u.x, prob)];
   if (l->type == SPM_LIGHT_AREA) {
-    sample_area_light_point(s, l, u.yzw, light_p, light_n);
-    const float3 to = *light_p - x;
-    const float d2 = dot(to, to);
-    *dist = sqrt(d2);
-    *wi = to / *dist;
-    const float cos_l = -dot(*wi, *light_n);
-    if (cos_l <= 0.0f || d2 == 0.0f) return (float3)(0.0f); /* emits on its front side only */
-    return load3(l->emission) * (cos_l * l->area / (d2 * prob));
+    sample_area_light_point(s, l, u.yzw, p, n);
+  } else {
+    *p = load3(l->position);
+    *n = (float3)(0.0f);
   }
-  *light_p = load3(l->position);
-  *light_n = (float3)(0.0f);
-  const float3 to = *light_p - x;
+  return l;
+}
+
+/* The radiance that light point p (normal n, from sample_light_point with
+ * pick probability prob) sends to x, divided by the sampling pdf (per unit
+ * solid angle at x, cosine at x not included), or 0; *wi and *dist give
+ * the shadow ray. */
+inline float3 light_incident(const __global SpmLight* l, float3 x, float3 p, float3 n, float prob, float3* wi,
+                             float* dist) {
+  const float3 to = p - x;
   const float d2 = dot(to, to);
   *dist = sqrt(d2);
   *wi = to / *dist;
+  if (l->type == SPM_LIGHT_AREA) {
+    const float cos_l = -dot(*wi, n);
+    if (cos_l <= 0.0f || d2 == 0.0f) return (float3)(0.0f); /* emits on its front side only */
+    return load3(l->emission) * (cos_l * l->area / (d2 * prob));
+  }
   float profile = 1.0f;
   if (l->type == SPM_LIGHT_SPOT) profile = spot_falloff(l, -dot(*wi, load3(l->axis_z)));
   return load3(l->emission) * (profile / (d2 * prob));
+}
+
+/* Next-event estimation from x: a point on a light chosen by power
+ * (light_incident of sample_light_point). */
+inline float3 sample_light_incident(const SpmScene* s, float3 x, float4 u, float3* wi, float* dist,
+                                    float3* light_p, float3* light_n) {
+  float prob;
+  const __global SpmLight* l = sample_light_point(s, u, light_p, light_n, &prob);
+  return light_incident(l, x, *light_p, *light_n, prob, wi, dist);
 }
 
 #endif

@@ -20,6 +20,7 @@
 #define SPM_RNG_RESPAWN 7u
 #define SPM_RNG_EMIT 8u
 #define SPM_RNG_ROULETTE 10u
+#define SPM_RNG_MEDIUM_NEE 11u
 
 typedef struct SpmRng {
   uint seed;
