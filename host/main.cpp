@@ -19,6 +19,7 @@
 
 #include "bench/bench.h"
 #include "device/device.h"
+#include "film/compare.h"
 #include "film/image_io.h"
 #include "mpi/cluster.h"
 #include "profile/profile.h"
@@ -349,6 +350,12 @@ int main(int argc, char** argv) {
   bench->add_flag("--quick", bench_options.quick, "Fig. 3 (a) and (b) only, without the scaling cases");
   bench->add_option("--device", bench_device, "Device, as for render");
 
+  std::string compare_image, compare_reference;
+  auto* compare = app.add_subcommand(
+      "compare", "An image against a reference: RMSE, relMSE (eps 1e-2) and the means, as tools/compare.py");
+  compare->add_option("image", compare_image, "OpenEXR image")->required()->check(CLI::ExistingFile);
+  compare->add_option("reference", compare_reference, "OpenEXR reference")->required()->check(CLI::ExistingFile);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -363,6 +370,14 @@ int main(int argc, char** argv) {
   try {
     if (*devices) return cmd_devices();
     if (*render) return cluster.finish(cmd_render(r));
+    if (*compare) {
+      const spm::ImageDifference d = spm::compare_images(spm::read_exr(compare_image), spm::read_exr(compare_reference),
+                                                         compare_image);
+      std::printf("RMSE    %.6g\nrelMSE  %.6g  (eps 0.01)\n", d.rmse, d.relmse);
+      std::printf("mean    image %.6g %.6g %.6g\n        ref   %.6g %.6g %.6g\n", d.mean[0], d.mean[1], d.mean[2],
+                  d.reference_mean[0], d.reference_mean[1], d.reference_mean[2]);
+      return 0;
+    }
     if (*bench) {
       spm::Device device(spm::select_device(bench_device), "");
       std::cerr << "spm: bench on " << device.info().name << "\n";

@@ -52,6 +52,7 @@ inline std::string plane_scene(const std::string& body = "", bool light = true, 
 struct Outcome {
   int code;
   std::string err;
+  std::string out;
 };
 
 class CliTest : public ::testing::Test {
@@ -75,14 +76,17 @@ class CliTest : public ::testing::Test {
 
   // Runs `prefix spm args` (prefix: environment or a wrapper such as oclgrind).
   Outcome run(const std::string& args, const std::string& prefix = "") const {
-    const std::string err = path("stderr.txt");
+    const std::string err = path("stderr.txt"), out = path("stdout.txt");
     const std::string cmd =
-        prefix + " " + std::string(SPM_BINARY) + " " + args + " >/dev/null 2>" + err + " </dev/null";
+        prefix + " " + std::string(SPM_BINARY) + " " + args + " >" + out + " 2>" + err + " </dev/null";
     const int status = std::system(cmd.c_str());
-    std::ifstream in(err);
-    std::stringstream s;
-    s << in.rdbuf();
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, s.str()};
+    const auto read = [](const std::string& file) {
+      std::ifstream in(file);
+      std::stringstream s;
+      s << in.rdbuf();
+      return s.str();
+    };
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read(err), read(out)};
   }
 
   std::filesystem::path dir_;

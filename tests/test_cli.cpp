@@ -2,6 +2,8 @@
 // one clear line for bad input, and complete output files.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -170,6 +172,34 @@ TEST_F(Cli, KernelCompileErrorIsRuntimeFailureWithBuildLog) {
   EXPECT_NE(r.err.find("CL_BUILD_PROGRAM_FAILURE"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("spm_gather.cl:1"), std::string::npos) << r.err;  // the device's build log
   EXPECT_FALSE(fs::exists(path("o.exr")));
+}
+
+}  // namespace
+
+namespace {
+
+// spm compare prints the measures of tools/compare.py: here on two 2x1
+// images whose relMSE is worked out by hand.
+TEST_F(Cli, CompareMeasuresAgainstAReference) {
+  spm::Image a{2, 1, {1.0f, 1.0f, 1.0f, 0.5f, 0.5f, 0.5f}};
+  spm::Image b{2, 1, {1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f}};
+  spm::write_exr(path("a.exr"), a);
+  spm::write_exr(path("b.exr"), b);
+  const auto r = run("compare " + path("a.exr") + " " + path("b.exr"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  // Three channels of pixel 1 differ by 0.5: relMSE = 3 * 0.25 / 1.01 / 6.
+  const double relmse = 3 * 0.25 / 1.01 / 6, rmse = std::sqrt(3 * 0.25 / 6);
+  double got_relmse = 0, got_rmse = 0;
+  ASSERT_EQ(std::sscanf(r.out.c_str(), "RMSE %lf relMSE %lf", &got_rmse, &got_relmse), 2) << r.out;
+  EXPECT_NEAR(got_relmse, relmse, 1e-5 * relmse);
+  EXPECT_NEAR(got_rmse, rmse, 1e-5 * rmse);
+  EXPECT_NE(r.out.find("mean    image 0.75 0.75 0.75"), std::string::npos) << r.out;
+  // Another size is bad input, named.
+  spm::write_exr(path("c.exr"), spm::Image{1, 1, {1.0f, 1.0f, 1.0f}});
+  const auto bad = run("compare " + path("c.exr") + " " + path("b.exr"));
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("1x1 but the reference is 2x1"), std::string::npos) << bad.err;
+  EXPECT_EQ(count_lines(bad.err), 1) << bad.err;
 }
 
 }  // namespace
