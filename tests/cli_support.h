@@ -76,7 +76,8 @@ class CliTest : public ::testing::Test {
 
   // Runs `prefix spm args` (prefix: environment or a wrapper such as oclgrind).
   Outcome run(const std::string& args, const std::string& prefix = "") const {
-    const std::string err = path("stderr.txt"), out = path("stdout.txt");
+    // Not named *out*: the bad-input tests check that no output file is left.
+    const std::string err = path("stderr.txt"), out = path("printed.txt");
     const std::string cmd =
         prefix + " " + std::string(SPM_BINARY) + " " + args + " >" + out + " 2>" + err + " </dev/null";
     const int status = std::system(cmd.c_str());
