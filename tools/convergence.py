@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import os
 import re
 import subprocess
@@ -190,18 +191,23 @@ def main() -> int:
         text = reference.substitute_integrator(args.scene.read_text(), args.max_depth, 5)
         variant = reference.pick_variant("auto", args.scene, text, defines, log)
         scene = reference.load_scene(args.scene, text, defines)
-        scene_spp = int(scene.sensors()[0].sampler().sample_count())
         film = [int(v) for v in scene.sensors()[0].film().size()]
         if film != list(res):
             raise SystemExit(f"convergence: Mitsuba's film is {film[0]}x{film[1]} but the reference is "
                              f"{res[0]}x{res[1]}: pass -D res=...")
         reference.render(scene, 1, 999, 1, 0.0, lambda *a: None)  # compile the kernels
+        # Mitsuba's time per sample, so that its chunks of samples take about a
+        # tenth of each budget: every chunk is a launch of its own, so chunks
+        # of the scene's sample count (1 to 4 here) cost it samples, and one
+        # chunk must not overrun the budget.
+        _, probe_spp, probe_s = reference.render(scene, 16, 998, 16, 0.0, lambda *a: None)
+        per_spp = probe_s / probe_spp
         for b in budgets:
             exr = out / f"equal_spm_{b:g}s.exr"
             r = run_spm(spm, args.scene, exr, res, 0, "bre", args.seed + 100, args.defines, args.spm_arg, log,
                         budget=b)
             ms = compare.metrics(compare.load_exr(exr), ref)
-            chunk = max(1, min(scene_spp, 4096))
+            chunk = max(1, min(4096, 2 ** int(math.floor(math.log2(max(1.0, 0.1 * b / per_spp))))))
             img, spp_done, secs = reference.render(scene, 0, args.seed + 1000, chunk, b, lambda *a: None)
             mm = compare.metrics(img.astype(np.float64), ref)
             log(f"budget {b:g} s: spm {r['passes']} passes {r['seconds']:.2f} s relMSE {ms['relmse']:.4g}; "
