@@ -174,6 +174,25 @@ TEST(Validation, VolumetricCausticConvergesToMitsubaOutsideTheCaustic) {
   std::printf("volumetric_caustic: spm/volpath mean ratio in the caustic's region %.3f\n", inside);
 }
 
+// A volumetric caustic that volpath can render (issue 14, item 5): the glass
+// sphere in fog lit by a small spherical area light instead of a spot.
+// Measured (64x64, max_bounces 32): relMSE after 2 passes 0.0087 (seed 7,
+// the one used here; seeds 11, 17, 19, 23, 29: 0.0086 to 0.0095; seed 13:
+// 0.0173, a firefly), after 8 passes 0.0034; mean ratio spm/volpath 0.996
+// outside the light's six pixels. The bound 0.02 is above every seed. In the
+// floor caustic under the sphere (about 5x the floor's radiance) spm/volpath
+// is 0.96 to 1.00 after 2 passes over the seeds and 0.95 after 8 (the
+// radius blurs its peak); a caustic lost (no collapse at the glass) or
+// doubled would leave 0.85 to 1.1.
+TEST(Validation, AreaLitCausticConvergesToMitsuba) {
+  const Region caustic{26, 46, 38, 54};
+  const Renders r = validate({"caustic_area", 2, 0.02, {}});
+  const double inside = mean_ratio(r.n4, r.ref, caustic, true);
+  EXPECT_GT(inside, 0.85) << "spm/volpath in the floor caustic: " << inside;
+  EXPECT_LT(inside, 1.1) << "spm/volpath in the floor caustic: " << inside;
+  std::printf("caustic_area: spm/volpath mean ratio in the floor caustic %.3f\n", inside);
+}
+
 // The global fog box written the usual Mitsuba way (issue 12): no spm
 // settings, the fog nested in the sensor; and the same scene with the fog
 // also on every shape. Both render the same image (bit for bit here: the
