@@ -1,4 +1,4 @@
-// The stream kernels (spm_emit ... spm_compact) against a sequential C++
+// The stream kernels (spm_emit ... spm_respawn) against a sequential C++
 // reference of each stream's life (tests/stream_reference.cpp) that draws the
 // same Philox numbers: a few hundred streams in a small closed box with fog,
 // a glass sphere, a mirror, a null medium boundary, an area light and a spot

@@ -42,7 +42,7 @@ struct PhotonMaps {
   StreamStats stats;
 };
 
-// Stream propagation on one device, batch by batch; trace() runs a whole
+// Stream propagation on one device, batch by batch; propagate() runs a whole
 // pass, tests drive emit/make_room/step/flush themselves to look inside.
 class StreamPropagator {
  public:
@@ -81,7 +81,7 @@ class StreamPropagator {
   uint32_t live_bound() const { return live_bound_; }
 
   // Moves the records written so far, and the counters, to `maps` (records
-  // in device order; propagate_streams sorts them).
+  // in device order; propagate() orders them by stream).
   void flush(PhotonMaps& maps);
 
   // For tests: the batch's buffers as they are now.
