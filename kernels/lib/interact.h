@@ -97,6 +97,13 @@ inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStream
   return SPM_TO_ABSORB;
 }
 
+/* The leader leaves the surface along `next`, into the medium on that side. */
+inline void leave_along(SpmStreams st, uint s, const SpmSurface* surf, const __global SpmShape* shape, float3 next) {
+  st.direction[s] = (float4)(next, 0.0f);
+  st.medium[s] = target_medium(shape, surf->ng, next, st.medium[s]);
+  st.origin[s] = (float4)(leave_surface(surf, next), 0.0f);
+}
+
 /* Mirror or dielectric: collapse (phi := n phi, n := 1; METHOD.md 4), then
  * reflect or refract. */
 inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, const SpmSurface* surf,
@@ -117,9 +124,7 @@ inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, cons
   const float w = goes_on(p, st, s, depth, st.phi[s].xyz, rng, counts);
   if (w == 0.0f) return SPM_TO_END;
   st.phi[s] *= (float4)(w, w, w, 1.0f);
-  st.direction[s] = (float4)(next, 0.0f);
-  st.medium[s] = target_medium(shape, surf->ng, next, st.medium[s]);
-  st.origin[s] = (float4)(leave_surface(surf, next), 0.0f);
+  leave_along(st, s, surf, shape, next);
   return SPM_TO_LIVE;
 }
 
@@ -147,10 +152,7 @@ inline uint diffuse_event(const SpmStreamParams* p, SpmStreams st, uint s, const
   const float w = goes_on(p, st, s, depth, (float)st.alive[s] * st.phi[s].xyz * reflectance, rng, counts);
   if (w == 0.0f) return SPM_TO_DEPOSIT;
   const float4 u = rng4(rng, SPM_RNG_BSDF, 0);
-  const float3 next = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d));
-  st.direction[s] = (float4)(next, 0.0f);
-  st.medium[s] = target_medium(shape, surf->ng, next, st.medium[s]);
-  st.origin[s] = (float4)(leave_surface(surf, next), 0.0f);
+  leave_along(st, s, surf, shape, to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d)));
   const float4 sv = survival(reflectance);
   st.scale[s] = (float4)(sv.xyz * w, sv.w);
   return SPM_TO_DEPOSIT;
