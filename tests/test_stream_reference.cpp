@@ -277,12 +277,7 @@ DeviceRun run_device(const spm::SceneTables& tables, const spm::StreamSettings& 
     return run;
   }
   spm::PhotonMaps again;
-  propagator.emit(0, settings.streams);
-  while (propagator.live_bound() > 0) {
-    propagator.make_room(again);
-    propagator.step();
-  }
-  propagator.flush(again);
+  propagator.run_batch(0, settings.streams, again);
   const spm::StreamState& st = propagator.state();
   const size_t n = settings.streams;
   run.state.id = device.download<cl_uint>(st.id, n);

@@ -468,12 +468,7 @@ TEST(Streams, DeviceAppendsEachStreamsRecordsInOrder) {
   spm::StreamPropagator propagator(spm::test::device(), gpu, s);
   ASSERT_GE(propagator.batch_capacity(), s.streams);
   spm::PhotonMaps raw;
-  propagator.emit(0, s.streams);
-  while (propagator.live_bound() > 0) {
-    propagator.make_room(raw);
-    propagator.step();
-  }
-  propagator.flush(raw);
+  propagator.run_batch(0, s.streams, raw);
   EXPECT_GE(raw.stats.flushes, 1u) << "the test needs a mid-batch flush";
   const auto volume_key = [](const SpmVolumeRecord& r) { return uint64_t(r.stream) << 32 | r.depth; };
   const auto surface_key = [](const SpmSurfaceRecord& r) { return uint64_t(r.stream) << 32 | r.depth_photon; };

@@ -185,6 +185,17 @@ void StreamPropagator::flush(PhotonMaps& maps) {
                                      counters_.data() + SPM_COUNT_QUEUES);
 }
 
+void StreamPropagator::run_batch(uint32_t first, uint32_t count, PhotonMaps& maps) {
+  emit(first, count);
+  maps.stats.counters[SPM_COUNT_STREAMS] += count;
+  ++maps.stats.batches;
+  while (live_bound_ > 0) {
+    make_room(maps);
+    step();
+  }
+  flush(maps);
+}
+
 PhotonMaps StreamPropagator::propagate(uint32_t pass, float width) { return propagate(pass, width, 0, settings_.streams); }
 
 PhotonMaps StreamPropagator::propagate(uint32_t pass, float width, uint32_t begin, uint32_t streams) {
@@ -193,17 +204,7 @@ PhotonMaps StreamPropagator::propagate(uint32_t pass, float width, uint32_t begi
   PhotonMaps maps;
   maps.stats.batch_size = capacity_;
   const uint32_t end = std::min(settings_.streams, begin + streams);
-  for (uint32_t first = begin; first < end; first += capacity_) {
-    const uint32_t count = std::min(capacity_, end - first);
-    emit(first, count);
-    maps.stats.counters[SPM_COUNT_STREAMS] += count;
-    ++maps.stats.batches;
-    while (live_bound_ > 0) {
-      make_room(maps);
-      step();
-    }
-    flush(maps);
-  }
+  for (uint32_t first = begin; first < end; first += capacity_) run_batch(first, std::min(capacity_, end - first), maps);
   // Appends raced on the device; (stream, event[, photon]) is a total order
   // independent of it, so the maps and every sum over them are deterministic.
   order_by_stream(maps.volume, begin, end - begin);

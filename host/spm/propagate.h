@@ -77,8 +77,10 @@ class StreamPropagator {
   // many live on (the exact number is on the device until the next step).
   uint32_t step();
 
-  // Streams that may still live: 0 once the batch is done.
-  uint32_t live_bound() const { return live_bound_; }
+  // Streams [first, first + count) of the pass (count <= capacity) from
+  // emission until none lives, their records appended to `maps` in device
+  // order (propagate() then orders them by stream).
+  void run_batch(uint32_t first, uint32_t count, PhotonMaps& maps);
 
   // Moves the records written so far, and the counters, to `maps` (records
   // in device order; propagate() orders them by stream).
