@@ -59,7 +59,7 @@ struct RenderArgs {
   std::string profile_json, trace;
   std::optional<size_t> device_memory;
   // Overrides of the scene's <integrator type="spm"> properties.
-  std::optional<int> streams, associated, bounces, max_depth, rr_depth;
+  std::optional<int> streams, associated, beam_streams, bounces, max_depth, rr_depth;
   std::optional<float> stream_width, march_step, radius, alpha, time;
   std::optional<std::string> estimator, density_kernel, direct;
 };
@@ -72,10 +72,12 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   };
   positive(a.streams, "--streams");
   positive(a.associated, "--associated");
+  positive(a.beam_streams, "--beam-streams");
   positive(a.stream_width, "--stream-width");
   positive(a.radius, "--radius");
   if (a.streams) in.streams = *a.streams;
   if (a.associated) in.associated = *a.associated;
+  if (a.beam_streams) in.beam_streams = *a.beam_streams;
   if (a.bounces) in.max_bounces = *a.bounces;
   if (a.max_depth) in.max_depth = *a.max_depth;
   if (a.rr_depth) in.rr_depth = *a.rr_depth;
@@ -286,6 +288,9 @@ int main(int argc, char** argv) {
   render->add_option("--streams", r.streams, "Photon streams per pass, N_s (integrator 'streams'); default 10000");
   render->add_option("--associated", r.associated,
                      "Associated photons per stream, N_a (integrator 'associated'); default 4");
+  render->add_option("--beam-streams", r.beam_streams,
+                     "With --estimator beams: streams of a pass whose flights are stored as beams (integrator "
+                     "'beam_streams'); default 1000");
   render->add_option("--stream-width", r.stream_width,
                      "Stream width w: respawn sphere and deposit disk radius (integrator 'width'); default: the radius");
   render->add_option("--bounces", r.bounces,
@@ -308,7 +313,8 @@ int main(int argc, char** argv) {
                      "Render passes for this many seconds instead of a pass count (integrator 'time'); the passes "
                      "end within it, scene load, kernel builds and the pilot reported apart");
   render->add_option("--estimator", r.estimator,
-                     "Volume estimate: 'bre' (default), the physically based beam radiance estimate; 'paper', "
+                     "Volume estimate: 'bre' (default), the physically based beam radiance estimate over the "
+                     "stream records; 'beams', the stream beams' beam x beam 1D estimate (METHOD.md 11); 'paper', "
                      "eq. (4) of the paper literally, kept to reproduce its figures: it has no phase function, "
                      "transmittance or albedo and is not energy-consistent")
       ->check(CLI::IsMember(spm::kEstimatorOption.names()));

@@ -1,7 +1,8 @@
 /* Test entry points of the gather's estimates (kernels/lib/estimate.h), so
  * that they can be compared with a brute-force sum on the host.
  * spm_beam_test: one work-item per ray segment (origin xyz + t0, direction
- * xyz + t1). spm_surface_test: one per query point (xyz) with normal (xyz). */
+ * xyz + t1); spm_stream_beam_test likewise over stream beams.
+ * spm_surface_test: one per query point (xyz) with normal (xyz). */
 #include "spm_types.h"
 #include "lib/estimate.h"
 
@@ -17,6 +18,20 @@ __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uin
   uint tests = 0;
   const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
                                  origins[i].w, directions[i].w, radius, density_kernel, estimator, max_rec_depth, &tests);
+  out[i] = (float4)(l, (float)tests);
+}
+
+__kernel void spm_stream_beam_test(const __global SpmGridInfo* info, const __global uint* cell_start,
+                                   const __global uint* items, const __global SpmBeam* beams,
+                                   const __global SpmMedium* media, const __global float4* origins,
+                                   const __global float4* directions, __global float4* out, uint count, int medium,
+                                   float radius, uint density_kernel, uint max_rec_depth) {
+  const uint i = get_global_id(0);
+  if (i >= count) return;
+  uint tests = 0;
+  const float3 l =
+      stream_beam_estimate(info, cell_start, items, beams, media, medium, origins[i].xyz, directions[i].xyz,
+                           origins[i].w, directions[i].w, radius, density_kernel, max_rec_depth, &tests);
   out[i] = (float4)(l, (float)tests);
 }
 

@@ -4,7 +4,8 @@
  *
  * A camera ray through the pixel filter follows specular chains (mirror,
  * dielectric) and null boundaries. Along every segment inside a medium it
- * adds the beam radiance estimate over the volumetric stream map and is
+ * adds the beam radiance estimate over the volumetric stream map (or the
+ * stream beams' estimate) and is
  * attenuated by the medium's transmittance (paper eq. 2); at the first diffuse
  * surface it adds the surface photon map's estimate and, by default, direct
  * light by next-event estimation with shadow rays that carry transmittance.
@@ -24,9 +25,14 @@ typedef struct SpmMaps {
   SpmGrid volume_grid;
   const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
+  const __global SpmGridInfo* beam_info;
+  const __global uint* beam_start;
+  const __global uint* beam_items;
+  const __global SpmBeam* beams;
   SpmGrid surface_grid;
   const __global float4* surface_flux;
   float radius;
+  float beam_radius;
   uint density_kernel;
   uint estimator;
   uint direct;
@@ -156,9 +162,15 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const bool hit = scene_intersect(s, o + tmin * d, d, tmax - tmin, &h);
     const float t_end = hit ? h.t + tmin : tmax;
     if (medium >= 0) {
-      L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
-                                t_end, maps->radius, maps->density_kernel, maps->estimator,
-                                record_depth_limit(max_depth, specular), tests);
+      const uint depth_limit = record_depth_limit(max_depth, specular);
+      if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
+        L += beta * stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media,
+                                         medium, o, d, tmin, t_end, maps->beam_radius, maps->density_kernel,
+                                         depth_limit, tests);
+      } else {
+        L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
+                                  t_end, maps->radius, maps->density_kernel, maps->estimator, depth_limit, tests);
+      }
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
         L += beta * inscatter_nee(s, medium, o, d, tmin, t_end, rng);
@@ -219,9 +231,14 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.volume_grid = make_grid(volume_info, volume_start, volume_pos);
   maps.volume_items = volume_items;
   maps.volume = volume;
+  maps.beam_info = beam_info;
+  maps.beam_start = beam_start;
+  maps.beam_items = beam_items;
+  maps.beams = beams;
   maps.surface_grid = make_grid(surface_info, surface_start, surface_pos);
   maps.surface_flux = surface_flux;
   maps.radius = params.radius;
+  maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;
   maps.estimator = params.estimator;
   maps.direct = params.direct;

@@ -18,8 +18,9 @@
   S(SpmLightPrim, 8)          \
   S(SpmCamera, 96)            \
   S(SpmVolumeRecord, 48)      \
+  S(SpmBeam, 64)              \
   S(SpmSurfaceRecord, 64)     \
-  S(SpmStreamParams, 48)      \
+  S(SpmStreamParams, 64)      \
   S(SpmGatherParams, 48)      \
   S(SpmGridInfo, 32)
 
@@ -43,7 +44,9 @@
   F(SpmCamera, width) F(SpmCamera, height) F(SpmCamera, medium) F(SpmCamera, filter)            \
   F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)                                       \
   F(SpmVolumeRecord, position) F(SpmVolumeRecord, stream) F(SpmVolumeRecord, direction)         \
-  F(SpmVolumeRecord, depth) F(SpmVolumeRecord, flux) F(SpmVolumeRecord, medium)                                          \
+  F(SpmVolumeRecord, depth) F(SpmVolumeRecord, flux) F(SpmVolumeRecord, medium)                \
+  F(SpmBeam, origin) F(SpmBeam, stream) F(SpmBeam, direction) F(SpmBeam, depth) F(SpmBeam, flux) \
+  F(SpmBeam, medium) F(SpmBeam, length)                                                         \
   F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
   F(SpmSurfaceRecord, depth_photon) F(SpmSurfaceRecord, flux) F(SpmSurfaceRecord, flags)        \
   F(SpmSurfaceRecord, normal)                                                                   \
@@ -51,9 +54,11 @@
   F(SpmStreamParams, associated) F(SpmStreamParams, stream_width) F(SpmStreamParams, march_step) \
   F(SpmStreamParams, max_bounces) F(SpmStreamParams, max_depth) F(SpmStreamParams, rr_depth)     \
   F(SpmStreamParams, volume_capacity) F(SpmStreamParams, surface_capacity)                       \
+  F(SpmStreamParams, beam_capacity) F(SpmStreamParams, beam_streams)                             \
   F(SpmGatherParams, seed) F(SpmGatherParams, pass) F(SpmGatherParams, spp)                     \
   F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
+  F(SpmGatherParams, beam_radius)                                                               \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

@@ -14,7 +14,11 @@
   X(SpmGridInfo, surface_info) /* the surface map's point grid */                            \
   X(uint, surface_start)       /* its cells' first items (CSR) */                            \
   X(float4, surface_pos)       /* per item: position; w: the packed normal */                \
-  X(float4, surface_flux)      /* per item: flux; w: depth */
+  X(float4, surface_flux)      /* per item: flux; w: depth */                             \
+  X(SpmGridInfo, beam_info)    /* the stream beams' capsule grid */                       \
+  X(uint, beam_start)          /* its cells' first items (CSR) */                         \
+  X(uint, beam_items)          /* per item: the beam's index */                           \
+  X(SpmBeam, beams)            /* the beams */
 
 #ifdef __OPENCL_VERSION__
 #define SPM_MAP_PARAM(type, name) , const __global type *name

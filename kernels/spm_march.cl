@@ -8,7 +8,17 @@
  * the exponential truncated to the step; march_step = 0 samples the free
  * flight directly. For a homogeneous medium both give Exp(sigma_t) exactly.
  * RGB sigma_t is sampled with the channel mean; phi is multiplied by the
- * ratio of the true to the sampled density per channel. */
+ * ratio of the true to the sampled density per channel.
+ *
+ * When the gather reads stream beams (beam_capacity > 0), the flight to the
+ * event inside a medium is also appended as a beam (METHOD.md 11) with the
+ * flux the stream set off with: the segment ends at the sampled event, so
+ * a point at distance t on it is reached with probability exp(-mean t),
+ * and the gather weighs the flux there by exp(-(sigma_t - mean) t). Only
+ * the pass's first beam_streams streams write beams, their flux scaled by
+ * N_s / beam_streams: a beam gathers light along its whole length, so far
+ * fewer of them than of the streams the surfaces need make a smooth
+ * estimate, and the gather's cost grows with their number. */
 #include "spm_types.h"
 #include "lib/scene.h"
 #include "lib/stream.h"
@@ -29,8 +39,28 @@ inline float free_flight(float sigma, float tmax, float step, SpmRng rng) {
   return SPM_INF;
 }
 
-__kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global uint* live,
-                        const __global uint* counts SPM_STREAM_PARAMS) {
+/* Appends stream s's flight of length t from o along d in medium m as a
+ * beam, unless no scattering on it could count within max_depth. */
+inline void append_beam(const SpmStreamParams* p, __global SpmBeam* beams, __global uint* counts, uint s, float3 o,
+                        float3 d, float t, int m, float3 flux, uint id, uint depth) {
+  if (!depth_counts(depth + 1u, p->max_depth) || !isfinite(t) || max_comp(flux) <= 0.0f) return;
+  const uint slot = atomic_inc(&counts[SPM_COUNT_BEAMS]);
+  if (slot >= p->beam_capacity) {
+    atomic_or(&counts[SPM_COUNT_ERRORS], SPM_ERROR_BEAM_OVERFLOW);
+    return;
+  }
+  __global SpmBeam* b = &beams[slot];
+  vstore3(o, 0, b->origin);
+  vstore3(d, 0, b->direction);
+  vstore3(flux, 0, b->flux);
+  b->stream = id;
+  b->depth = depth + 1u;
+  b->medium = m;
+  b->length = t;
+}
+
+__kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global uint* live, __global uint* counts,
+                        __global SpmBeam* beams SPM_STREAM_PARAMS) {
   const uint q = get_global_id(0);
   if (q >= counts[SPM_COUNT_LIVE]) return;
   const uint s = live[q];
@@ -55,6 +85,11 @@ __kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global
       weight = sigma / mean * exp(-(sigma - mean) * te);
     } else if (surface) {
       weight = exp(-(sigma - mean) * h.t);
+    }
+    if (params.beam_capacity > 0 && st_id[s] < params.beam_streams && max_comp(load3(sc.media[m].albedo)) > 0.0f) {
+      const float share = (float)params.pass_streams / (float)params.beam_streams;
+      append_beam(&params, beams, counts, s, o, d, t, m, share * (float)st_alive[s] * st_phi[s].xyz, st_id[s],
+                  st_depth[s]);
     }
     st_phi[s] *= (float4)(weight, 1.0f);
   }

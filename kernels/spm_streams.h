@@ -83,6 +83,7 @@
 #define SPM_COUNT_END_DEPTH 16     /* streams ended by max_depth */
 #define SPM_COUNT_END_BOUNCES 17   /* streams ended by max_bounces */
 #define SPM_COUNT_STREAMS 18       /* streams emitted (counted on the host) */
+#define SPM_COUNT_BEAMS 19         /* stream beams appended (METHOD.md 11) */
 #define SPM_COUNTERS 20
 
 /* Safety caps (METHOD.md 10): a stream ends after this many medium events or

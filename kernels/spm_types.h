@@ -24,6 +24,7 @@ typedef float spm_float;
 #define SPM_ERROR_VOLUME_OVERFLOW 1u  /* more volume records than the buffer holds */
 #define SPM_ERROR_SURFACE_OVERFLOW 2u /* more surface records than the buffer holds */
 #define SPM_ERROR_NONFINITE 4u        /* a NaN or infinite flux or radiance */
+#define SPM_ERROR_BEAM_OVERFLOW 8u    /* more stream beams than the buffer holds */
 
 /* Integrator options as the kernels take them; their names are in
  * host/scene/integrator_options.h, the one table the loader, the command
@@ -32,6 +33,7 @@ typedef float spm_float;
 #define SPM_KERNEL_EPANECHNIKOV 1u /* density kernel 2 / (pi r^2) (1 - d^2 / r^2) */
 #define SPM_ESTIMATOR_BRE 0u       /* beam radiance estimate (METHOD.md 5) */
 #define SPM_ESTIMATOR_PAPER 1u     /* the paper's eq. (4), literally */
+#define SPM_ESTIMATOR_BEAMS 2u     /* stream beams, beam x beam 1D (METHOD.md 11) */
 #define SPM_DIRECT_NEE 0u          /* direct light on surfaces by shadow rays */
 #define SPM_DIRECT_PHOTONS 1u      /* direct light from the photon map only */
 
@@ -175,6 +177,21 @@ typedef struct SpmVolumeRecord {
   spm_int medium;    /* the medium the event happened in */
 } SpmVolumeRecord;
 
+/* Stream beam (METHOD.md 11): one in-medium flight segment of a stream's
+ * leader, from where the stream set off to its next event, carrying the
+ * flux the stream set off with. Every segment ends in a path vertex, so
+ * (stream, depth) orders the beams as it orders the records. */
+typedef struct SpmBeam {
+  spm_float origin[3];
+  spm_uint stream;        /* stream id within the pass */
+  spm_float direction[3]; /* unit direction of travel */
+  spm_uint depth;         /* the path vertex a scattering on the beam makes (METHOD.md 10) */
+  spm_float flux[3];      /* n * phi as the stream set off (RGB) */
+  spm_int medium;         /* the medium the segment crosses */
+  spm_float length;       /* to the next event */
+  spm_uint pad[3];
+} SpmBeam;
+
 /* Record flags. */
 #define SPM_RECORD_HAD_EVENT 1u /* the stream scattered or bounced before (METHOD.md 5) */
 
@@ -206,7 +223,9 @@ typedef struct SpmStreamParams {
   spm_uint rr_depth;         /* Russian roulette from this path vertex on */
   spm_uint volume_capacity;  /* records the volume map buffer holds */
   spm_uint surface_capacity; /* records the surface map buffer holds */
-  spm_uint pad;
+  spm_uint beam_capacity;    /* beams the beam buffer holds; 0: march writes no beams */
+  spm_uint beam_streams;     /* streams [0, beam_streams) of the pass write beams (METHOD.md 11) */
+  spm_uint pad[3];
 } SpmStreamParams;
 
 /* What the gather kernel of a pass reads besides the maps (METHOD.md 5, 6,
@@ -221,7 +240,8 @@ typedef struct SpmGatherParams {
   spm_uint estimator;      /* SPM_ESTIMATOR_* */
   spm_uint direct;         /* SPM_DIRECT_* */
   spm_uint direct_terms;   /* 0: the photon estimates alone (a later part of the maps) */
-  spm_uint pad[3];
+  spm_float beam_radius;   /* the stream beams' 1D kernel radius in the pass */
+  spm_uint pad[2];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -117,7 +117,7 @@ nlohmann::json Profiler::json() const {
         {"ended_by_max_depth", c[SPM_COUNT_END_DEPTH]},
         {"ended_by_max_bounces", c[SPM_COUNT_END_BOUNCES]},
         {"ended_by_cap", c[SPM_COUNT_CAPPED]}}},
-      {"records", {{"volume", volume_records_}, {"surface", surface_records_}}},
+      {"records", {{"volume", volume_records_}, {"surface", surface_records_}, {"beams", c[SPM_COUNT_BEAMS]}}},
       {"gather",
        {{"camera_samples", camera_samples_},
         {"sphere_tests", sphere_tests_},

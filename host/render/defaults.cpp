@@ -12,6 +12,10 @@ namespace spm {
 
 int derived_streams(const IntegratorSettings& in) { return in.streams > 0 ? in.streams : kDefaultStreams; }
 
+int derived_beam_streams(const IntegratorSettings& in) {
+  return std::min(derived_streams(in), in.beam_streams > 0 ? in.beam_streams : kDefaultBeamStreams);
+}
+
 int derived_associated(const IntegratorSettings& in) {
   return in.associated > 0 ? in.associated : kDefaultAssociated;
 }

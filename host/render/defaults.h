@@ -25,7 +25,14 @@ inline constexpr int kDefaultAssociated = 4;
 // is the distance to the kScaleNeighbours-th nearest record (README).
 inline constexpr int kScaleNeighbours = 32;
 
+// Streams of a pass that write stream beams (METHOD.md 11) when the gather
+// reads them and the scene names no number: a beam gathers along its whole
+// length, so a few hundred make a smooth estimate, while the gather's cost
+// grows with their number (README "Stream beams").
+inline constexpr int kDefaultBeamStreams = 1000;
+
 int derived_streams(const IntegratorSettings& in);
+int derived_beam_streams(const IntegratorSettings& in);
 int derived_associated(const IntegratorSettings& in);
 
 // Camera samples per pixel in one pass when none is given: about one camera

@@ -35,7 +35,8 @@ StreamSettings batch_settings(const Device& device, const GpuScene& gpu, const S
 
 // Host bytes of the maps' records.
 size_t map_bytes(const PhotonMaps& m) {
-  return m.volume.size() * sizeof(SpmVolumeRecord) + m.surface.size() * sizeof(SpmSurfaceRecord);
+  return m.volume.size() * sizeof(SpmVolumeRecord) + m.surface.size() * sizeof(SpmSurfaceRecord) +
+         m.beams.size() * sizeof(SpmBeam);
 }
 
 // Appends the maps of the next streams: both stay ordered by (stream,
@@ -47,6 +48,7 @@ void append(PhotonMaps& to, PhotonMaps&& from) {
   }
   to.volume.insert(to.volume.end(), from.volume.begin(), from.volume.end());
   to.surface.insert(to.surface.end(), from.surface.begin(), from.surface.end());
+  to.beams.insert(to.beams.end(), from.beams.begin(), from.beams.end());
   to.stats.batches += from.stats.batches;
   to.stats.flushes += from.stats.flushes;
   to.stats.live.insert(to.stats.live.end(), from.stats.live.begin(), from.stats.live.end());
@@ -106,8 +108,8 @@ void PassRenderer::Stages::stage(const char* name, double start) const {
   if (profiler) profiler->stage(name, start, profiler->now(), track);
 }
 
-void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool direct_terms, PassOutput& out,
-                          const Stages& stages) {
+void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float beam_radius, bool direct_terms,
+                          PassOutput& out, const Stages& stages) {
   // The estimates are sums over records, so maps whose grids do not fit the
   // device memory left are gathered in parts, each part's grids built,
   // uploaded and gathered along the same camera paths (same random
@@ -118,7 +120,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
   const size_t pixels = size_t(s.width) * s.height;
   const bool skip_direct = direct_ == SPM_DIRECT_NEE;
   const cl_uint max_depth = in.max_depth < 0 ? SPM_NONE : cl_uint(in.max_depth);
-  const size_t records = maps.volume.size() + maps.surface.size();
+  const bool beams = estimator_ == SPM_ESTIMATOR_BEAMS;
+  const size_t records = (beams ? maps.beams.size() : maps.volume.size()) + maps.surface.size();
   std::vector<float> rgb(pixels * 3, 0.0f);
   uint64_t tests = 0;
   size_t parts = 1;
@@ -127,8 +130,15 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
     QueryBounds reach;
     reach.lo = scene_lo_ - glm::vec3(radius);
     reach.hi = scene_hi_ + glm::vec3(radius);
-    MapGridData data = map_grid_data(part_of(maps.volume, k, parts), part_of(maps.surface, k, parts), radius,
-                                     skip_direct, reach);
+    // The gather reads the volume records or the beams, never both.
+    MapParts part;
+    if (beams) {
+      part.beams = part_of(maps.beams, k, parts);
+    } else {
+      part.volume = part_of(maps.volume, k, parts);
+    }
+    part.surface = part_of(maps.surface, k, parts);
+    MapGridData data = map_grid_data(std::move(part), radius, beam_radius, skip_direct, reach);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
@@ -159,6 +169,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, bool d
     params.spp = cl_uint(s.spp);
     params.max_depth = max_depth;
     params.radius = radius;
+    params.beam_radius = beam_radius;
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;
     params.direct = direct_;
@@ -187,6 +198,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   // Progressive radius (METHOD.md 6), the stream width shrinking with it.
   const float radius = pass_radius(in.radius, in.alpha, pass);
   const float width = in.stream_width * radius / in.radius;
+  const float beam_radius = pass_beam_radius(in.radius, in.alpha, pass);
   // The pass's streams batch by batch; their maps wait on the host until
   // they pass the host budget or the streams run out, and are then gathered
   // and dropped (the estimates are sums over records, so the parts add up
@@ -204,7 +216,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
     if (first < streams && map_bytes(maps) < host_budget_) continue;
     if (pass == 0 && first_part && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
     stages.lap();
-    gather(maps, pass, radius, first_part, out, stages);
+    gather(maps, pass, radius, beam_radius, first_part, out, stages);
     out.counters.live.insert(out.counters.live.end(), maps.stats.live.begin(), maps.stats.live.end());
     for (int k = 0; k < SPM_COUNTERS; ++k) out.counters.stream_counters[k] += maps.stats.counters[k];
     out.counters.volume_records += maps.volume.size();

@@ -8,6 +8,7 @@
 
 #include "render/defaults.h"
 #include "render/pass_renderer.h"
+#include "scene/integrator_options.h"
 #include "scene/gpu_scene.h"
 #include "util/errors.h"
 #include "util/timer.h"
@@ -66,6 +67,8 @@ StreamSettings stream_settings(const Scene& scene, const RenderSettings& s, int 
   out.max_depth = limit(in.max_depth);
   out.rr_depth = static_cast<uint32_t>(in.rr_depth);
   out.march_step = in.march_step;
+  out.beams = kEstimatorOption.code(in.estimator) == SPM_ESTIMATOR_BEAMS;
+  out.beam_streams = static_cast<uint32_t>(derived_beam_streams(in));
   out.seed = s.seed;
   out.pass = static_cast<uint32_t>(pass);
   return out;
@@ -77,6 +80,14 @@ float pass_radius(float r0, float alpha, int pass) {
   double r2 = double(r0) * r0;
   for (int k = 1; k <= pass; ++k) r2 *= (k + double(alpha)) / (k + 1);
   return static_cast<float>(std::sqrt(r2));
+}
+
+float pass_beam_radius(float r0, float alpha, int pass) {
+  // A 1D kernel's variance grows as 1/r, not 1/r^2, so the progressive rule
+  // shrinks r itself by (k + alpha) / (k + 1) (progressive photon beams,
+  // Jarosz et al. 2011, 4.3): the square of the 2D schedule, relative to r0.
+  const float s = pass_radius(1.0f, alpha, pass);
+  return r0 * s * s;
 }
 
 Image render(const Scene& scene, const RenderSettings& settings, Device& device, RenderStats* stats,

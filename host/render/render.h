@@ -78,6 +78,9 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s);
 // Search radius of pass `pass` (from 0) for initial radius r0 (METHOD.md 6).
 float pass_radius(float r0, float alpha, int pass);
 
+// The stream beams' 1D kernel radius of pass `pass` for initial radius r0.
+float pass_beam_radius(float r0, float alpha, int pass);
+
 // The stream propagation settings of pass `pass`.
 StreamSettings stream_settings(const Scene& scene, const RenderSettings& settings, int pass);
 

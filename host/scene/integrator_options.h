@@ -52,7 +52,7 @@ struct IntegratorOption {
 };
 
 inline const IntegratorOption kEstimatorOption{
-    "estimator", "estimator", {{"bre", SPM_ESTIMATOR_BRE}, {"paper", SPM_ESTIMATOR_PAPER}}};
+    "estimator", "estimator", {{"bre", SPM_ESTIMATOR_BRE}, {"beams", SPM_ESTIMATOR_BEAMS}, {"paper", SPM_ESTIMATOR_PAPER}}};
 inline const IntegratorOption kDensityKernelOption{
     "kernel", "kernel", {{"uniform", SPM_KERNEL_UNIFORM}, {"epanechnikov", SPM_KERNEL_EPANECHNIKOV}}};
 inline const IntegratorOption kDirectOption{

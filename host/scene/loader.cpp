@@ -688,6 +688,7 @@ class Loader {
     int_at_least("streams", s.streams, 1);
     int_at_least("associated", s.associated, 1);
     int_at_least("max_bounces", s.max_bounces, -1);
+    int_at_least("beam_streams", s.beam_streams, 1);
     int_at_least("passes", s.passes, 1);
     int_at_least("max_depth", s.max_depth, -1);
     int_at_least("rr_depth", s.rr_depth, 1);

@@ -88,6 +88,7 @@ struct IntegratorSettings {
   // 0: derived from the scene (host/render/defaults.h).
   int streams = 0;
   int associated = 0;
+  int beam_streams = 0;  // streams of a pass that write stream beams (METHOD.md 11)
   float radius = 0.0f;
   float stream_width = 0.0f;  // w (METHOD.md 1)
   bool radius_derived = false, stream_width_derived = false;  // set by derive_scale

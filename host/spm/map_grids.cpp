@@ -46,6 +46,18 @@ RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radi
   return build_point_grid(positions(records), kSurfaceCell * radius);
 }
 
+RecordGrid beam_grid(const std::vector<SpmBeam>& beams, float radius) {
+  std::vector<glm::vec3> starts, ends;
+  starts.reserve(beams.size());
+  ends.reserve(beams.size());
+  for (const SpmBeam& b : beams) {
+    const glm::vec3 o(b.origin[0], b.origin[1], b.origin[2]), d(b.direction[0], b.direction[1], b.direction[2]);
+    starts.push_back(o);
+    ends.push_back(o + b.length * d);
+  }
+  return build_capsule_grid(starts, ends, radius, kBeamCell * radius);
+}
+
 std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
   return per_item(grid, records, [](const SpmVolumeRecord& r) {
     return cl_float4{{r.position[0], r.position[1], r.position[2], float(r.depth)}};
@@ -90,25 +102,32 @@ size_t vector_bytes(const std::vector<T>& v) {
 size_t MapGridData::bytes() const {
   return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
          vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
-         vector_bytes(surface_pos) + vector_bytes(surface_flux);
+         vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
+         vector_bytes(beam.items) + vector_bytes(beams);
 }
 
-MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface_all,
-                          float radius, bool skip_direct, const QueryBounds& reach) {
+MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, const QueryBounds& reach) {
   MapGridData d;
+  std::vector<SpmVolumeRecord>& volume = maps.volume;
+  std::vector<SpmBeam>& beams = maps.beams;
   if (skip_direct) {
     // Single scattering comes from next-event estimation (spm_gather.cl,
-    // inscatter_nee): a volume record at path vertex 1 has no earlier event.
+    // inscatter_nee): a volume record or beam at path vertex 1 has no
+    // earlier event.
     volume.erase(std::remove_if(volume.begin(), volume.end(), [](const SpmVolumeRecord& r) { return r.depth <= 1; }),
                  volume.end());
+    beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),
+                beams.end());
   }
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(surface_all, skip_direct, reach);
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct, reach);
   d.volume = volume_grid(volume, radius);
   d.surface = surface_grid(surface, radius);
+  d.beam = beam_grid(beams, beam_radius);
   d.volume_pos = volume_item_positions(d.volume, volume);
   d.surface_pos = surface_item_positions(d.surface, surface);
   d.surface_flux = surface_item_flux(d.surface, surface);
   d.volume_records = std::move(volume);
+  d.beams = std::move(beams);
   return d;
 }
 
@@ -121,7 +140,11 @@ MapGrids::MapGrids(Device& device, const MapGridData& d)
       surface_info(device.upload("surface_info", std::vector<SpmGridInfo>{d.surface.info})),
       surface_start(device.upload("surface_start", d.surface.cell_start)),
       surface_pos(device.upload("surface_pos", d.surface_pos)),
-      surface_flux(device.upload("surface_flux", d.surface_flux)) {}
+      surface_flux(device.upload("surface_flux", d.surface_flux)),
+      beam_info(device.upload("beam_info", std::vector<SpmGridInfo>{d.beam.info})),
+      beam_start(device.upload("beam_start", d.beam.cell_start)),
+      beam_items(device.upload("beam_items", d.beam.items)),
+      beams(device.upload("beams", d.beams)) {}
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
 #define SPM_MAP_BIND(type, name) bind_arg(k, i++, #name, name);

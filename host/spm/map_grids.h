@@ -18,10 +18,17 @@ namespace spm {
 // and reads the bounds of up to (2 / kSurfaceCell + 1)^2 rows of cells.
 inline constexpr float kSurfaceCell = 1.0f;
 
+// Edge of the stream beams' capsule grid cells, in beam radii: a ray
+// examines the beams of the cells it crosses, which lie within about
+// r + (1/2 + sqrt(3)/2) kBeamCell r of it, and a beam of length L is listed
+// in about pi (1 + sqrt(3)/2 kBeamCell)^2 L / (kBeamCell^3 r) cells.
+inline constexpr float kBeamCell = 1.5f;
+
 // The gather's grids: the volume map's sphere grid and the surface map's
 // point grid (host/spm/record_grid.h).
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
 RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius);
+RecordGrid beam_grid(const std::vector<SpmBeam>& beams, float radius);
 
 // Grid items of the volume map: the listed record's position, its depth in w
 // (kernels/lib/estimate.h leaves out records deeper than max_depth allows).
@@ -50,20 +57,28 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
                                                    const QueryBounds& reach = {});
 
 // The gather's grids of some map records, built on the host: the volume
-// map's sphere grid and the surface map's point grid with their per-item
-// arrays, as MapGrids uploads them.
+// map's sphere grid, the surface map's point grid and the stream beams'
+// capsule grid with their per-item arrays, as MapGrids uploads them.
 struct MapGridData {
-  RecordGrid volume, surface;
+  RecordGrid volume, surface, beam;
   std::vector<cl_float4> volume_pos, surface_pos, surface_flux;
   std::vector<SpmVolumeRecord> volume_records;
+  std::vector<SpmBeam> beams;
   size_t bytes() const;  // device memory of the upload
 };
 
+// The records a pass's gather reads, and its radii.
+struct MapParts {
+  std::vector<SpmVolumeRecord> volume;  // empty when the gather reads beams
+  std::vector<SpmSurfaceRecord> surface;
+  std::vector<SpmBeam> beams;           // empty unless the gather reads beams
+};
+
 // `surface` as the gather uses it (used_surface_records); with next-event
-// estimation (`skip_direct`) the volume records of streams without an
-// earlier event (depth 1) are left out too.
-MapGridData map_grid_data(std::vector<SpmVolumeRecord> volume, const std::vector<SpmSurfaceRecord>& surface,
-                          float radius, bool skip_direct, const QueryBounds& reach = {});
+// estimation (`skip_direct`) the volume records and beams of streams
+// without an earlier event (depth 1) are left out too.
+MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct,
+                          const QueryBounds& reach = {});
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound
 // under their names after the gather's own arguments.

@@ -13,10 +13,12 @@ namespace {
 // Device memory of one stream slot: its state, three queue entries (live,
 // next live, respawn), an entry in the deposit and the absorb list for each
 // associated photon, and room for one iteration's worth of surface records
-// and eight volume records, so that flushes stay rare.
-size_t bytes_per_stream(uint32_t associated) {
+// and eight volume records (and eight beams when the gather reads them), so
+// that flushes stay rare.
+size_t bytes_per_stream(uint32_t associated, bool beams) {
   return StreamState::bytes_per_slot() + 3 * sizeof(cl_uint) +
-         associated * (sizeof(SpmSurfaceRecord) + 2 * sizeof(cl_uint)) + 8 * sizeof(SpmVolumeRecord);
+         associated * (sizeof(SpmSurfaceRecord) + 2 * sizeof(cl_uint)) + 8 * sizeof(SpmVolumeRecord) +
+         (beams ? 8 * sizeof(SpmBeam) : 0);
 }
 
 // A batch takes `memory_budget` bytes when set, else half the device memory
@@ -25,7 +27,7 @@ uint32_t batch_size(const Device& device, const StreamSettings& s) {
   const DeviceInfo& info = device.info();
   const size_t budget =
       s.memory_budget ? s.memory_budget : std::min<size_t>(device.memory_free() / 2, size_t(1) << 30);
-  size_t n = budget / bytes_per_stream(s.associated);
+  size_t n = budget / bytes_per_stream(s.associated, s.beams);
   // The largest single buffer, the surface records, must fit one allocation.
   n = std::min<size_t>(n, info.max_alloc / (s.associated * sizeof(SpmSurfaceRecord)));
   // Per-photon kernels index (stream, photon) with 32-bit global ids.
@@ -33,7 +35,7 @@ uint32_t batch_size(const Device& device, const StreamSettings& s) {
   n = std::min<size_t>(n, s.streams);
   if (n == 0) {
     throw RuntimeError("one stream of " + std::to_string(s.associated) + " associated photons (" +
-                       std::to_string(bytes_per_stream(s.associated)) + " bytes) does not fit the " +
+                       std::to_string(bytes_per_stream(s.associated, s.beams)) + " bytes) does not fit the " +
                        std::to_string(budget) + " bytes left for stream batches of the device memory budget of " +
                        std::to_string(device.memory_budget()) + " bytes (--device-memory)");
   }
@@ -49,6 +51,7 @@ StreamPropagator::StreamPropagator(Device& device, const GpuScene& scene, const 
   capacity_ = batch_size(device, settings_);
   volume_capacity_ = 8 * capacity_;
   surface_capacity_ = capacity_ * settings_.associated;
+  beam_capacity_ = settings_.beams ? 8 * capacity_ : 0;
   state_ = StreamState(device, capacity_);
   live_ = device.buffer(sizeof(cl_uint) * capacity_, "the live queue");
   live_next_ = device.buffer(sizeof(cl_uint) * capacity_, "the next live queue");
@@ -58,6 +61,8 @@ StreamPropagator::StreamPropagator(Device& device, const GpuScene& scene, const 
   counts_ = device.buffer(sizeof(cl_uint) * SPM_COUNTERS, "the stream counters");
   volume_ = device.buffer(sizeof(SpmVolumeRecord) * volume_capacity_, "the volume map buffer");
   surface_ = device.buffer(sizeof(SpmSurfaceRecord) * surface_capacity_, "the surface map buffer");
+  // Without beams march still takes a buffer argument: one unused entry.
+  beams_ = device.buffer(sizeof(SpmBeam) * std::max<cl_uint>(1, beam_capacity_), "the beam buffer");
   emit_ = device.kernel("spm_emit", "spm_emit");
   march_ = device.kernel("spm_march", "spm_march");
   interact_ = device.kernel("spm_interact", "spm_interact");
@@ -69,7 +74,7 @@ StreamPropagator::StreamPropagator(Device& device, const GpuScene& scene, const 
 }
 
 size_t StreamPropagator::bytes() const {
-  return size_t(capacity_) * bytes_per_stream(settings_.associated) + sizeof(cl_uint) * SPM_COUNTERS;
+  return size_t(capacity_) * bytes_per_stream(settings_.associated, settings_.beams) + sizeof(cl_uint) * SPM_COUNTERS;
 }
 
 SpmStreamParams StreamPropagator::params() const {
@@ -86,6 +91,8 @@ SpmStreamParams StreamPropagator::params() const {
   p.rr_depth = s.rr_depth;
   p.volume_capacity = volume_capacity_;
   p.surface_capacity = surface_capacity_;
+  p.beam_capacity = beam_capacity_;
+  p.beam_streams = std::min(s.beam_streams, s.streams);
   return p;
 }
 
@@ -119,7 +126,7 @@ uint32_t StreamPropagator::step() {
   queue.enqueueFillBuffer(counts_, cl_uint(0), sizeof(cl_uint) * SPM_COUNT_LIVE_NEXT,
                           sizeof(cl_uint) * (SPM_COUNT_QUEUES - SPM_COUNT_LIVE_NEXT));
   const cl_uint surface_first = counters_[SPM_COUNT_SURFACE];
-  set_args(march_, scene_, arg("params", p), arg("live", live_), arg("counts", counts_), state_);
+  set_args(march_, scene_, arg("params", p), arg("live", live_), arg("counts", counts_), arg("beams", beams_), state_);
   const size_t march = device_.launch(march_, live_bound_);
   set_args(interact_, scene_, arg("params", p), arg("live", live_), arg("counts", counts_),
            arg("surface_first", surface_first), arg("volume", volume_), arg("deposit_list", deposit_list_),
@@ -158,7 +165,8 @@ uint32_t StreamPropagator::step() {
 void StreamPropagator::make_room(PhotonMaps& maps) {
   const size_t volume = size_t(counters_[SPM_COUNT_VOLUME]) + live_bound_;
   const size_t surface = size_t(counters_[SPM_COUNT_SURFACE]) + size_t(live_bound_) * settings_.associated;
-  if (volume > volume_capacity_ || surface > surface_capacity_) {
+  const size_t beams = size_t(counters_[SPM_COUNT_BEAMS]) + live_bound_;
+  if (volume > volume_capacity_ || surface > surface_capacity_ || (beam_capacity_ > 0 && beams > beam_capacity_)) {
     flush(maps);
     ++maps.stats.flushes;
   }
@@ -173,6 +181,7 @@ void StreamPropagator::flush(PhotonMaps& maps) {
   read_counters();
   device_.download_append(volume_, counters_[SPM_COUNT_VOLUME], maps.volume);
   device_.download_append(surface_, counters_[SPM_COUNT_SURFACE], maps.surface);
+  if (beam_capacity_ > 0) device_.download_append(beams_, counters_[SPM_COUNT_BEAMS], maps.beams);
   for (int k = SPM_COUNT_QUEUES; k < SPM_COUNTERS; ++k) {
     maps.stats.counters[k] += counters_[k];
     counters_[k] = 0;
@@ -209,6 +218,7 @@ PhotonMaps StreamPropagator::propagate(uint32_t pass, float width, uint32_t begi
   // independent of it, so the maps and every sum over them are deterministic.
   order_by_stream(maps.volume, begin, end - begin);
   order_by_stream(maps.surface, begin, end - begin);
+  order_by_stream(maps.beams, begin, end - begin);
   return maps;
 }
 

@@ -23,6 +23,8 @@ struct StreamSettings {
   uint32_t max_depth = SPM_NONE;  // METHOD.md 10: longest path in segments; SPM_NONE: unlimited
   uint32_t rr_depth = 5;       // Russian roulette from this path vertex on
   float march_step = 0.0f;     // 0: exact free-flight sampling
+  bool beams = false;          // march appends stream beams (METHOD.md 11) for a gather that reads them
+  uint32_t beam_streams = 0;   // with beams: streams [0, beam_streams) of the pass write them
   uint32_t seed = 0;
   uint32_t pass = 0;
   size_t memory_budget = 0;    // bytes of device memory for a batch; 0: half the device's free memory
@@ -39,6 +41,7 @@ struct StreamStats {
 struct PhotonMaps {
   std::vector<SpmVolumeRecord> volume;    // ordered by (stream, event)
   std::vector<SpmSurfaceRecord> surface;  // ordered by (stream, event, photon)
+  std::vector<SpmBeam> beams;             // ordered by (stream, event); empty unless settings.beams
   StreamStats stats;
 };
 
@@ -69,7 +72,7 @@ class StreamPropagator {
   void emit(uint32_t first, uint32_t count);
 
   // Before step(): downloads the maps into `maps` when the coming iteration's
-  // worst case (one volume record and N_a surface records per live stream)
+  // worst case (one volume record, one beam and N_a surface records per live stream)
   // might not fit, so that nothing is ever dropped.
   void make_room(PhotonMaps& maps);
 
@@ -99,9 +102,9 @@ class StreamPropagator {
   StreamSettings settings_;
   uint32_t capacity_ = 0;
   uint32_t live_bound_ = 0;
-  cl_uint volume_capacity_ = 0, surface_capacity_ = 0;
+  cl_uint volume_capacity_ = 0, surface_capacity_ = 0, beam_capacity_ = 0;
   StreamState state_;
-  DeviceBuffer live_, live_next_, respawn_queue_, deposit_list_, absorb_list_, counts_, volume_, surface_;
+  DeviceBuffer live_, live_next_, respawn_queue_, deposit_list_, absorb_list_, counts_, volume_, surface_, beams_;
   std::array<cl_uint, SPM_COUNTERS> counters_{};
   std::vector<uint32_t> live_log_;
   cl::Kernel emit_, march_, interact_, deposit_, absorb_, respawn_;

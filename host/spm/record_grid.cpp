@@ -67,6 +67,61 @@ void for_each_overlapped_cell(const SpmGridInfo& g, const glm::vec3& p, double r
   }
 }
 
+// Squared distance from point c to the segment [p, p + s e] (unit e).
+double segment_distance2(const glm::dvec3& c, const glm::dvec3& p, const glm::dvec3& e, double s) {
+  const double t = std::clamp(glm::dot(c - p, e), 0.0, s);
+  const glm::dvec3 off = c - (p + t * e);
+  return glm::dot(off, off);
+}
+
+// Calls f(cell index) once for every cell whose closed box lies within
+// distance r of the segment from p to q, and for some cells a little
+// further: a cell is taken when its centre is within r plus its half
+// diagonal of the segment (the ball around the box holds the box). Cells
+// are visited slab by slab along x, each slab over the y and z range of the
+// part of the segment that can reach it.
+template <typename F>
+void for_each_capsule_cell(const SpmGridInfo& g, const glm::vec3& pf, const glm::vec3& qf, double r, F&& f) {
+  const double cell = g.cell;
+  // The slack absorbs the rounding of the float grid and the double test.
+  const double reach = (r + 0.5 * std::sqrt(3.0) * cell) * (1.0 + 1e-6);
+  const glm::dvec3 p(pf), q(qf), lo(g.lo[0], g.lo[1], g.lo[2]);
+  const double length = glm::length(q - p);
+  const glm::dvec3 e = length > 0.0 ? (q - p) / length : glm::dvec3(1.0, 0.0, 0.0);
+  auto cell_range = [&](int k, double a, double b, int64_t& first, int64_t& last) {
+    first = std::max<int64_t>(0, static_cast<int64_t>(std::floor((std::min(a, b) - reach - lo[k]) / cell)) - 1);
+    last = std::min<int64_t>(int64_t(g.dims[k]) - 1,
+                             static_cast<int64_t>(std::floor((std::max(a, b) + reach - lo[k]) / cell)) + 1);
+  };
+  int64_t x0, x1;
+  cell_range(0, p.x, q.x, x0, x1);
+  for (int64_t x = x0; x <= x1; ++x) {
+    // The segment's parameters whose x lies within reach of this slab.
+    double s0 = 0.0, s1 = length;
+    const double a = lo.x + double(x) * cell - reach, b = lo.x + double(x + 1) * cell + reach;
+    if (e.x != 0.0) {
+      const double ta = (a - p.x) / e.x, tb = (b - p.x) / e.x;
+      s0 = std::max(s0, std::min(ta, tb));
+      s1 = std::min(s1, std::max(ta, tb));
+      if (s0 > s1) continue;
+    } else if (p.x < a || p.x > b) {
+      continue;
+    }
+    const glm::dvec3 u = p + s0 * e, v = p + s1 * e;
+    int64_t y0, y1, z0, z1;
+    cell_range(1, u.y, v.y, y0, y1);
+    cell_range(2, u.z, v.z, z0, z1);
+    for (int64_t z = z0; z <= z1; ++z) {
+      for (int64_t y = y0; y <= y1; ++y) {
+        const glm::dvec3 centre = lo + cell * (glm::dvec3(double(x), double(y), double(z)) + 0.5);
+        if (segment_distance2(centre, p, e, length) <= reach * reach) {
+          f(size_t(x) + g.dims[0] * (size_t(y) + g.dims[1] * size_t(z)));
+        }
+      }
+    }
+  }
+}
+
 // Throws for the bad inputs both grids share.
 void check_centres(const std::vector<glm::vec3>& centres, size_t max_cells) {
   if (max_cells == 0) throw InputError("", "a record grid needs max_cells >= 1");
@@ -125,11 +180,11 @@ SpmGridInfo layout(const std::vector<glm::vec3>& centres, double margin, double 
 // Counting sort: count each cell's records into cell_start[c + 1], prefix-sum,
 // then fill in record order so each cell's list is increasing.
 // for_each_cell(centre, f) calls f(cell index) for each cell listing it.
-template <typename ForEachCell>
-void fill(RecordGrid& grid, const std::vector<glm::vec3>& centres, ForEachCell&& for_each_cell) {
+template <class Item, typename ForEachCell>
+void fill(RecordGrid& grid, const std::vector<Item>& centres, ForEachCell&& for_each_cell) {
   const size_t cells = size_t(grid.info.dims[0]) * grid.info.dims[1] * grid.info.dims[2];
   grid.cell_start.assign(cells + 1, 0);
-  for (const glm::vec3& c : centres) {
+  for (const Item& c : centres) {
     for_each_cell(c, [&](size_t cell_index) { ++grid.cell_start[cell_index + 1]; });
   }
   uint64_t total = 0;
@@ -174,6 +229,31 @@ RecordGrid build_point_grid(const std::vector<glm::vec3>& centres, float cell, s
   RecordGrid grid;
   grid.info = layout(centres, 0.0, cell, max_cells);
   fill(grid, centres, [&](const glm::vec3& c, auto&& f) { f(grid_cell_index(grid.info, grid_cell_of(grid.info, c))); });
+  grid.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return grid;
+}
+
+RecordGrid build_capsule_grid(const std::vector<glm::vec3>& starts, const std::vector<glm::vec3>& ends, float radius,
+                              float cell, size_t max_cells) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!(radius > 0.0f) || !std::isfinite(radius)) {
+    throw InputError("", "the beam radius must be positive and finite, got " + std::to_string(radius));
+  }
+  if (!(cell > 0.0f) || !std::isfinite(cell)) {
+    throw InputError("", "the capsule grid's cell edge must be positive and finite, got " + std::to_string(cell));
+  }
+  if (starts.size() != ends.size()) throw RuntimeError("capsule grid: segment starts and ends differ in number");
+  check_centres(starts, max_cells);
+  check_centres(ends, max_cells);
+  std::vector<glm::vec3> corners(starts);
+  corners.insert(corners.end(), ends.begin(), ends.end());
+  RecordGrid grid;
+  // The margin r keeps every capsule inside the grid.
+  grid.info = layout(corners, radius, cell, max_cells);
+  grid.info.records = static_cast<uint32_t>(starts.size());
+  std::vector<uint32_t> index(starts.size());
+  for (size_t i = 0; i < index.size(); ++i) index[i] = static_cast<uint32_t>(i);
+  fill(grid, index, [&](uint32_t i, auto&& f) { for_each_capsule_cell(grid.info, starts[i], ends[i], radius, f); });
   grid.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return grid;
 }

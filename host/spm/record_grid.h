@@ -49,6 +49,18 @@ RecordGrid build_sphere_grid(const std::vector<glm::vec3>& centres, float radius
 // for a cell edge that is not positive and finite).
 RecordGrid build_point_grid(const std::vector<glm::vec3>& centres, float cell, size_t max_cells = size_t(1) << 22);
 
+// Capsule grid, for the stream beams (METHOD.md 11): segment i, from
+// starts[i] to ends[i], is listed in every cell its capsule of radius
+// `radius` overlaps (and in some cells just beyond: a cell is taken when its
+// centre is within radius plus half its diagonal of the segment). A gather
+// ray counts a beam in the one cell holding the ray's point closest to the
+// beam, which lies inside the capsule, so each beam within the radius is
+// found exactly once. Cubic cells of edge max(cell, extent /
+// floor(cbrt(max_cells))) cover the bounding box of the segments grown by
+// the radius. Throws as build_sphere_grid does.
+RecordGrid build_capsule_grid(const std::vector<glm::vec3>& starts, const std::vector<glm::vec3>& ends, float radius,
+                              float cell, size_t max_cells = size_t(1) << 22);
+
 // Cell coordinates of point p, clamped to the grid; p must be finite. Float
 // arithmetic, as in the kernels, so host and device agree on a point's cell.
 inline glm::ivec3 grid_cell_of(const SpmGridInfo& g, const glm::vec3& p) {

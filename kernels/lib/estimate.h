@@ -1,5 +1,6 @@
-/* Density estimates of the gather (METHOD.md 5): the beam radiance estimate
- * over the volumetric stream map through its host-built sphere grid, and the
+/* Density estimates of the gather (METHOD.md 5, 11): the beam radiance
+ * estimate over the volumetric stream map through its host-built sphere
+ * grid, the stream beams' estimate through their capsule grid, and the
  * surface estimate over the surface photon map through its point grid. */
 #ifndef SPM_LIB_ESTIMATE_H
 #define SPM_LIB_ESTIMATE_H
@@ -65,6 +66,67 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
   } while (grid_walk_next(grid->info, &walk));
   if (estimator == SPM_ESTIMATOR_PAPER) return sum / (SPM_PI * r2 * (t1 - t0));
   return sum * load3(media[m].albedo);
+}
+
+/* 1D kernel normalised over [-r, r] (d2: squared distance): uniform
+ * 1/(2r), or Epanechnikov 3/(4r) (1 - d^2/r^2). */
+inline float kernel_1d(uint density_kernel, float d2, float r) {
+  if (density_kernel == SPM_KERNEL_EPANECHNIKOV) return 0.75f / r * (1.0f - d2 / (r * r));
+  return 0.5f / r;
+}
+
+/* In-scattered radiance towards the camera along [t0, t1] of o + t d (unit
+ * d) inside medium `m` from the stream beams (METHOD.md 11), the beam x
+ * beam 1D estimate of Jarosz et al. 2011 (their eq. for short beams): over
+ * every beam whose closest approach to the ray lies on both, at distance
+ * dist < r,
+ *   K_1D(dist) / sin(theta) sigma_s T_ray(t_r) p(theta) (n phi) w(s_b),
+ * t_r and s_b the closest points' parameters on the ray (from t0) and the
+ * beam. A beam ends at the stream's sampled next event, which the stream
+ * reached with probability exp(-mean(sigma_t) s) (march's free flight), so
+ * instead of the beam's transmittance it carries
+ * w(s) = exp(-(sigma_t - mean) s), 1 in a grey medium. Each beam is counted
+ * in the one cell of its capsule grid that holds the ray's closest point.
+ * Beams deeper than max_rec_depth are left out (METHOD.md 10); beams within
+ * 1e-3 of parallel to the ray, whose 1 / sin(theta) has no bound, too.
+ * *tests counts the beams examined. */
+inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __global uint* cell_start,
+                                   const __global uint* items, const __global SpmBeam* beams,
+                                   const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1,
+                                   float r, uint density_kernel, uint max_rec_depth, uint* tests) {
+  float3 sum = (float3)(0.0f);
+  SpmGridWalk walk;
+  if (info->records == 0 || !grid_walk_begin(info, o, d, t0, t1, &walk)) return sum;
+  const float r2 = r * r;
+  const float3 sigma_t = load3(media[m].sigma_t);
+  const float3 excess = sigma_t - mean_comp(sigma_t);
+  const float g = media[m].phase == SPM_PHASE_HG ? media[m].g : 0.0f;
+  do {
+    const uint c = grid_cell_index(info, walk.cell);
+    for (uint k = cell_start[c]; k < cell_start[c + 1]; ++k) {
+      ++*tests;
+      const __global SpmBeam* b = &beams[items[k]];
+      if (b->medium != m || b->depth > max_rec_depth) continue;
+      const float3 e = vload3(0, b->direction);
+      const float3 w0 = o - vload3(0, b->origin);
+      const float a = dot(d, e);
+      const float sin2 = 1.0f - a * a;
+      if (sin2 < 1e-6f) continue;
+      const float dw = dot(d, w0), ew = dot(e, w0);
+      const float t = (a * ew - dw) / sin2;
+      const float sb = (ew - a * dw) / sin2;
+      if (t < t0 || t > t1 || sb < 0.0f || sb > b->length) continue;
+      const float3 x = o + t * d;
+      const float3 off = x - (vload3(0, b->origin) + sb * e);
+      const float d2 = dot(off, off);
+      if (d2 >= r2) continue;
+      const int3 home = grid_cell_of(info, x);
+      if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
+      sum += kernel_1d(density_kernel, d2, r) * rsqrt(sin2) * exp(-sigma_t * (t - t0) - excess * sb) *
+             phase_hg(-a, g) * vload3(0, b->flux);
+    }
+  } while (grid_walk_next(info, &walk));
+  return sum * sigma_t * load3(media[m].albedo);
 }
 
 /* Surface record normals ride in item_pos.w as three 10-bit components

@@ -28,9 +28,6 @@ inline float4 survival(float3 c) {
   return a > 0.0f ? (float4)(c / a, a) : (float4)(0.0f);
 }
 
-/* A record at path vertex `depth` counts within max_depth (METHOD.md 10). */
-inline bool depth_counts(uint depth, uint max_depth) { return max_depth == SPM_NONE || depth + 1u <= max_depth; }
-
 /* Ends stream s for `why`, counted in counts[counter]. */
 inline uint end_stream(SpmStreams st, uint s, uint why, __global uint* counts, uint counter) {
   st.end[s] = why;

@@ -8,6 +8,9 @@
 #include "rng.h"
 #include "sampling.h"
 
+/* A record at path vertex `depth` counts within max_depth (METHOD.md 10). */
+inline bool depth_counts(uint depth, uint max_depth) { return max_depth == SPM_NONE || depth + 1u <= max_depth; }
+
 /* Pushes stream s onto a queue whose size is counts[size] (pbrt-v4's Push:
  * reserve the entry atomically, then write it). */
 inline void push_stream(__global uint* queue, __global uint* counts, uint size, uint s) {
