@@ -62,6 +62,7 @@ struct RenderArgs {
   std::optional<int> streams, associated, beam_streams, bounces, max_depth, rr_depth;
   std::optional<float> stream_width, march_step, radius, alpha, time;
   std::optional<std::string> estimator, density_kernel, direct;
+  bool final_gather = false, no_final_gather = false;
 };
 
 void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
@@ -89,6 +90,9 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   if (a.estimator) in.estimator = *a.estimator;
   if (a.density_kernel) in.density_kernel = *a.density_kernel;
   if (a.direct) in.direct = *a.direct;
+  if (a.final_gather && a.no_final_gather) throw spm::InputError("--final-gather", "and --no-final-gather both given");
+  if (a.final_gather) in.final_gather = true;
+  if (a.no_final_gather) in.final_gather = false;
 }
 
 std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
@@ -320,6 +324,12 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember(spm::kEstimatorOption.names()));
   render->add_option("--density-kernel", r.density_kernel, "Density estimation kernel: uniform (default) or epanechnikov")
       ->check(CLI::IsMember(spm::kDensityKernelOption.names()));
+  render->add_flag("--final-gather", r.final_gather,
+                   "At the camera's first diffuse vertex, gather the photon maps along one cosine-sampled ray instead "
+                   "of reading them there, caustics excepted (integrator 'final_gather'; the default); needs --direct "
+                   "nee");
+  render->add_flag("--no-final-gather", r.no_final_gather,
+                   "Read the photon maps at the camera's first diffuse vertex (METHOD.md 5 as written)");
   render->add_option("--direct", r.direct,
                      "Direct light on surfaces: 'nee' (default; shadow rays with transmittance) or 'photons' "
                      "(photon map only, the paper's look)")

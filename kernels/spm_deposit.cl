@@ -36,6 +36,6 @@ __kernel void spm_deposit(SpmStreamParams params, const __global uint* deposit_l
   vstore3(normal, 0, r->normal);
   r->stream = st_id[s];
   r->depth_photon = (st_depth[s] << 16) | j;
-  r->flags = dir.w > 0.0f ? SPM_RECORD_HAD_EVENT : 0u;
+  r->flags = (uint)dir.w;
   r->pad = 0;
 }

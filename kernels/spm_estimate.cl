@@ -11,13 +11,14 @@ __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uin
                             const __global SpmVolumeRecord* records, const __global SpmMedium* media,
                             const __global float4* origins, const __global float4* directions, __global float4* out,
                             uint count, int medium, float radius, uint density_kernel, uint estimator,
-                            uint max_rec_depth) {
+                            uint min_rec_depth, uint max_rec_depth) {
   const uint i = get_global_id(0);
   if (i >= count) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   uint tests = 0;
   const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
-                                 origins[i].w, directions[i].w, radius, density_kernel, estimator, max_rec_depth, &tests);
+                                 origins[i].w, directions[i].w, radius, density_kernel, estimator, min_rec_depth,
+                                 max_rec_depth, &tests);
   out[i] = (float4)(l, (float)tests);
 }
 
@@ -25,13 +26,14 @@ __kernel void spm_stream_beam_test(const __global SpmGridInfo* info, const __glo
                                    const __global uint* items, const __global SpmBeam* beams,
                                    const __global SpmMedium* media, const __global float4* origins,
                                    const __global float4* directions, __global float4* out, uint count, int medium,
-                                   float radius, uint density_kernel, uint max_rec_depth) {
+                                   float radius, uint density_kernel, uint min_rec_depth, uint max_rec_depth) {
   const uint i = get_global_id(0);
   if (i >= count) return;
   uint tests = 0;
   const float3 l =
       stream_beam_estimate(info, cell_start, items, beams, media, medium, origins[i].xyz, directions[i].xyz,
-                           origins[i].w, directions[i].w, radius, density_kernel, max_rec_depth, &tests);
+                           origins[i].w, directions[i].w, radius, density_kernel, min_rec_depth, max_rec_depth,
+                           &tests);
   out[i] = (float4)(l, (float)tests);
 }
 

@@ -31,11 +31,14 @@ typedef struct SpmMaps {
   const __global SpmBeam* beams;
   SpmGrid surface_grid;
   const __global float4* surface_flux;
+  SpmGrid caustic_grid;
+  const __global float4* caustic_flux;
   float radius;
   float beam_radius;
   uint density_kernel;
   uint estimator;
   uint direct;
+  uint final_gather;
 } SpmMaps;
 
 /* Null boundaries a shadow ray may cross before it counts as blocked; scenes
@@ -129,6 +132,65 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
   return sum;
 }
 
+/* In-scattered radiance along [t0, t1] of o + t d in `medium` from the
+ * photon maps, by the pass's volume estimator, from records (or beams) of
+ * depths min_depth .. max_depth. */
+inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
+                              float t1, uint min_depth, uint max_depth, uint* tests) {
+  if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
+    return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media, medium, o,
+                                d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth, tests);
+  }
+  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, t0, t1,
+                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tests);
+}
+
+/* Indirect light reflected towards the camera at a diffuse vertex, by one
+ * final-gather ray (Jensen 1996): a cosine-weighted direction, along which
+ * the photon maps give the in-scattered light of every medium segment and
+ * the light leaving the first diffuse surface it meets, all records used
+ * (no next-event estimation there), attenuated by the transmittance. With
+ * the cosine's pdf the reflectance / pi cancels to the reflectance, which
+ * the caller applies. Emission and specular surfaces the ray meets add
+ * nothing: direct light comes from next-event estimation, and light
+ * through a specular chain from the caustic records read at the vertex
+ * itself (SPM_RECORD_CAUSTIC), so no light is counted twice. The density
+ * estimates' boundary bias at edges and corners (a disk reaching past the
+ * surface finds no photons there) is averaged over the gather ray's
+ * hemisphere instead of seen directly. max_depth: records of at most this
+ * depth count. */
+inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf, float3 d, int medium,
+                           uint max_depth, SpmRng rng, uint* tests) {
+  const float4 u = rng4(rng, SPM_RNG_FINAL_GATHER, 0);
+  const float3 wi = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d));
+  float3 o = leave_surface(surf, wi);
+  medium = target_medium(&s->shapes[surf->shape], surf->ng, wi, medium);
+  float3 tr = (float3)(1.0f);
+  float3 li = (float3)(0.0f);
+  for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
+    SpmHit h;
+    const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
+    if (medium >= 0) li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, hit ? h.t : SPM_INF, 0u, max_depth, tests);
+    if (!hit) break;
+    tr *= medium_transmittance(s, medium, h.t);
+    const SpmSurface y = scene_surface(s, o, wi, h);
+    const __global SpmShape* shape = &s->shapes[y.shape];
+    const __global SpmMaterial* m = &s->materials[shape->material];
+    if (m->type == SPM_MAT_NULL) {
+      medium = target_medium(shape, y.ng, wi, medium);
+      o = leave_surface(&y, wi);
+      continue;
+    }
+    if (m->type == SPM_MAT_DIFFUSE && reflects_from(m, &y, wi)) {
+      li += tr * load3(m->reflectance) * SPM_INV_PI *
+            surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, facing_normal(&y, wi), maps->radius,
+                             maps->density_kernel, max_depth);
+    }
+    break;
+  }
+  return li;
+}
+
 /* Specular vertices a camera path follows at most: a safety cap, so that
  * the vertices of a sample (null crossings included, at most 4 per specular
  * one) fit the block of 256 RNG events each sample has. */
@@ -162,15 +224,10 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const bool hit = scene_intersect(s, o + tmin * d, d, tmax - tmin, &h);
     const float t_end = hit ? h.t + tmin : tmax;
     if (medium >= 0) {
-      const uint depth_limit = record_depth_limit(max_depth, specular);
-      if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
-        L += beta * stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media,
-                                         medium, o, d, tmin, t_end, maps->beam_radius, maps->density_kernel,
-                                         depth_limit, tests);
-      } else {
-        L += beta * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, tmin,
-                                  t_end, maps->radius, maps->density_kernel, maps->estimator, depth_limit, tests);
-      }
+      /* With next-event estimation single scattering (depth 1) is its. */
+      const uint min_depth = maps->direct == SPM_DIRECT_NEE ? 2u : 0u;
+      L += beta * volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth,
+                                  record_depth_limit(max_depth, specular), tests);
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
         L += beta * inscatter_nee(s, medium, o, d, tmin, t_end, rng);
@@ -200,9 +257,21 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       if (reflects_from(m, &surf, d)) {
         const bool nee = maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth);
         if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, rng);
-        const float3 flux = surface_estimate(&maps->surface_grid, maps->surface_flux, surf.p, facing_normal(&surf, d),
-                                             maps->radius, maps->density_kernel, record_depth_limit(max_depth, specular));
-        L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
+        const uint depth_limit = record_depth_limit(max_depth, specular);
+        if (maps->final_gather) {
+          /* The gather ray's records lie one vertex further from the camera. */
+          const uint gather_limit = depth_limit == SPM_NONE ? SPM_NONE : (depth_limit > 0u ? depth_limit - 1u : 0u);
+          const float3 caustic = surface_estimate(&maps->caustic_grid, maps->caustic_flux, surf.p,
+                                                  facing_normal(&surf, d), maps->radius, maps->density_kernel,
+                                                  depth_limit);
+          L += beta * load3(m->reflectance) *
+               (SPM_INV_PI * caustic + final_gather(s, maps, &surf, d, medium, gather_limit, rng, tests));
+        } else {
+          const float3 flux = surface_estimate(&maps->surface_grid, maps->surface_flux, surf.p,
+                                               facing_normal(&surf, d), maps->radius, maps->density_kernel,
+                                               depth_limit);
+          L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
+        }
       }
       break;
     }
@@ -237,6 +306,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.beams = beams;
   maps.surface_grid = make_grid(surface_info, surface_start, surface_pos);
   maps.surface_flux = surface_flux;
+  maps.caustic_grid = make_grid(caustic_info, caustic_start, caustic_pos);
+  maps.caustic_flux = caustic_flux;
+  maps.final_gather = params.final_gather;
   maps.radius = params.radius;
   maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;

@@ -18,7 +18,11 @@
   X(SpmGridInfo, beam_info)    /* the stream beams' capsule grid */                       \
   X(uint, beam_start)          /* its cells' first items (CSR) */                         \
   X(uint, beam_items)          /* per item: the beam's index */                           \
-  X(SpmBeam, beams)            /* the beams */
+  X(SpmBeam, beams)            /* the beams */                                              \
+  X(SpmGridInfo, caustic_info) /* final gather: the caustic surface records' point grid */ \
+  X(uint, caustic_start)       /* its cells' first items (CSR) */                         \
+  X(float4, caustic_pos)       /* per item: position; w: the packed normal */             \
+  X(float4, caustic_flux)      /* per item: flux; w: depth */
 
 #ifdef __OPENCL_VERSION__
 #define SPM_MAP_PARAM(type, name) , const __global type *name

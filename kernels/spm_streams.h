@@ -11,7 +11,7 @@
   X(float4, phi)          /* flux of each associated photon, RGB (w unused) */                 \
   X(float4, hit)          /* march: event distance t, primitive (bits), barycentrics u, v */   \
   X(float4, event_pos)    /* interact: where the event happened */                             \
-  X(float4, event_dir)    /* interact: arriving direction; w: 1 if the stream had an event */  \
+  X(float4, event_dir)    /* interact: arriving direction; w: the record's SPM_RECORD_* flags */ \
   X(float4, event_normal) /* interact: surface normal on the arriving side */                  \
   X(float4, offsets)      /* respawn: disk normal; w: (event << 1) | ball, spm_respawn.cl */  \
   X(float4, scale)        /* absorb: survivors' flux factor per channel; w: survival prob. */  \
@@ -48,6 +48,7 @@
 
 #define SPM_STREAM_HAD_EVENT 1u
 #define SPM_STREAM_COLLAPSED 2u /* a specular event collapsed the stream (METHOD.md 4) */
+#define SPM_STREAM_AFTER_SPECULAR 4u /* the last event was specular (a medium boundary is none) */
 
 /* The queues of one wavefront iteration (METHOD.md 3). Each kernel moves a
  * stream to one next queue or ends it:

@@ -194,6 +194,8 @@ typedef struct SpmBeam {
 
 /* Record flags. */
 #define SPM_RECORD_HAD_EVENT 1u /* the stream scattered or bounced before (METHOD.md 5) */
+#define SPM_RECORD_CAUSTIC 2u   /* the stream's last event before this one was specular: light a final
+                                 * gather ray cannot bring, read at the camera's own vertex (spm_gather.cl) */
 
 /* Surface photon map record: one per alive associated photon of a stream at a
  * diffuse event. */
@@ -241,7 +243,8 @@ typedef struct SpmGatherParams {
   spm_uint direct;         /* SPM_DIRECT_* */
   spm_uint direct_terms;   /* 0: the photon estimates alone (a later part of the maps) */
   spm_float beam_radius;   /* the stream beams' 1D kernel radius in the pass */
-  spm_uint pad[2];
+  spm_uint final_gather;   /* 1: one gather ray at the camera's diffuse vertex (with SPM_DIRECT_NEE) */
+  spm_uint pad;
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -381,7 +381,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
   uint32_t bounces = 0, events = 1, medium_events = 0, depth = 0;  // event 0 was the emission
   // spm_interact's depth_counts and goes_on (METHOD.md 10).
   const auto counts = [&](uint32_t k) { return set.max_depth == SPM_NONE || k + 1u <= set.max_depth; };
-  bool had_event = false;
+  bool had_event = false, after_specular = false;
 
   for (;;) {
     const uint32_t event = events;
@@ -417,7 +417,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
     uint32_t act = 0;
     Survival scale;
     float3 event_pos, event_dir, event_normal;
-    bool event_had_event = false;
+    bool event_had_event = false, event_caustic = false;
     if (state == Event::Escape) {
       act = kEnd;
       ++out.escape_events;
@@ -443,6 +443,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         out.collapsed_medium_events += out.collapsed;
         depth = k;
         had_event = true;
+        after_specular = false;
         const float3 albedo = load3(m.albedo);
         const float w = goes_on(k, flux * albedo, flux0, set, rng, out, margins);
         if (w == 0.0f) {
@@ -491,6 +492,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
           ++out.specular_events;
           depth = k;
           had_event = true;
+          after_specular = true;
           const float w = goes_on(k, phi, flux0, set, rng, out, margins);
           if (w == 0.0f) {
             act = kEnd;
@@ -518,8 +520,10 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
           event_pos = surf.p;
           event_dir = dir;
           event_had_event = had_event;
+          event_caustic = after_specular;
           event_normal = dot(dir, surf.ng) < 0.0f ? surf.ng : -surf.ng;
           had_event = true;
+          after_specular = false;
           depth = k;
           const float3 reflectance = load3(mat.reflectance);
           if (++bounces >= set.max_bounces) {
@@ -564,7 +568,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         vstore3(event_normal, 0, r.normal);
         r.stream = id;
         r.depth_photon = (depth << 16) | j;
-        r.flags = event_had_event ? SPM_RECORD_HAD_EVENT : 0u;
+        r.flags = (event_had_event ? SPM_RECORD_HAD_EVENT : 0u) | (event_caustic ? SPM_RECORD_CAUSTIC : 0u);
         out.surface.push_back(r);
       }
     }

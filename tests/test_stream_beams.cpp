@@ -39,14 +39,14 @@ struct Bounds {
 };
 
 Bounds beam_reference(const std::vector<SpmBeam>& beams, const SpmMedium& m, int medium, dvec3 o, dvec3 d, double t0,
-                      double t1, double r, int kernel, uint32_t max_depth) {
+                      double t1, double r, int kernel, uint32_t min_depth, uint32_t max_depth) {
   Bounds out;
   const double margin = 1e-3;
   const dvec3 sigma = v3(m.sigma_t), albedo = v3(m.albedo);
   const double mean = (sigma.x + sigma.y + sigma.z) / 3.0;
   const double g = m.phase == SPM_PHASE_HG ? m.g : 0.0;
   for (const SpmBeam& b : beams) {
-    if (b.medium != medium || b.depth > max_depth) continue;
+    if (b.medium != medium || b.depth > max_depth || b.depth < min_depth) continue;
     const dvec3 e = v3(b.direction), w0 = o - v3(b.origin);
     const double a = glm::dot(d, e), sin2 = 1.0 - a * a;
     if (sin2 < 1e-6 * (1.0 - margin)) continue;
@@ -85,7 +85,7 @@ BeamBuffers upload(spm::Device& dev, const std::vector<SpmBeam>& beams, float ra
 // + t1); per ray the estimate (xyz) and the beams examined (w).
 std::vector<cl_float4> estimate(const std::vector<SpmBeam>& beams, const std::vector<SpmMedium>& media,
                                 const std::vector<cl_float4>& origins, const std::vector<cl_float4>& dirs, float radius,
-                                int kernel, uint32_t max_depth) {
+                                int kernel, uint32_t min_depth, uint32_t max_depth) {
   auto& dev = spm::test::device();
   const BeamBuffers u = upload(dev, beams, radius);
   const cl::Buffer mb = dev.upload("media", media);
@@ -97,7 +97,7 @@ std::vector<cl_float4> estimate(const std::vector<SpmBeam>& beams, const std::ve
                 spm::arg("beams", u.beams), spm::arg("media", mb), spm::arg("origins", ob), spm::arg("directions", db),
                 spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)),
                 spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
-                spm::arg("max_rec_depth", cl_uint(max_depth)));
+                spm::arg("min_rec_depth", cl_uint(min_depth)), spm::arg("max_rec_depth", cl_uint(max_depth)));
   dev.launch(k, n);
   return dev.download<cl_float4>(out, n);
 }
@@ -119,6 +119,7 @@ class StreamBeamEstimate : public ::testing::TestWithParam<std::tuple<int, uint3
 
 TEST_P(StreamBeamEstimate, EqualsTheBruteForceSum) {
   const auto [kernel, max_depth] = GetParam();
+  const uint32_t min_depth = max_depth == SPM_NONE ? 0u : 2u;
   std::mt19937 rng(17);
   std::uniform_real_distribution<float> pos(-20.0f, 20.0f), unit(-1.0f, 1.0f), len(0.0f, 30.0f);
   std::vector<SpmBeam> beams(3000);
@@ -150,12 +151,12 @@ TEST_P(StreamBeamEstimate, EqualsTheBruteForceSum) {
     dirs[i] = {{d.x, d.y, d.z, t1}};
   }
   const SpmMedium m = coloured_medium();
-  const auto got = estimate(beams, {m, m}, origins, dirs, radius, kernel, max_depth);
+  const auto got = estimate(beams, {m, m}, origins, dirs, radius, kernel, min_depth, max_depth);
   int nonzero = 0;
   for (int i = 0; i < n; ++i) {
     const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
     const dvec3 d(dirs[i].s[0], dirs[i].s[1], dirs[i].s[2]);
-    const Bounds ref = beam_reference(beams, m, 0, o, d, origins[i].s[3], dirs[i].s[3], radius, kernel, max_depth);
+    const Bounds ref = beam_reference(beams, m, 0, o, d, origins[i].s[3], dirs[i].s[3], radius, kernel, min_depth, max_depth);
     if (ref.lo.x > 0) ++nonzero;
     for (int c = 0; c < 3; ++c) {
       // Float rounding stays under 1e-4 of the sum; a beam counted twice or
@@ -205,7 +206,7 @@ TEST(StreamBeamEstimate, OneBeamsIntegralOverOffsetsIsTheClosedForm) {
         origins[i] = {{float(o.x), float(o.y), float(o.z), 0.0f}};
         dirs[i] = {{float(d.x), float(d.y), float(d.z), 2.0f * dist}};
       }
-      const auto got = estimate({b}, {m}, origins, dirs, radius, kernel, SPM_NONE);
+      const auto got = estimate({b}, {m}, origins, dirs, radius, kernel, 0, SPM_NONE);
       double integral = 0.0;
       for (int i = 0; i < n; ++i) {
         const double h = -2.0 * radius + (i + 0.5) * dh;
@@ -236,7 +237,7 @@ TEST(StreamBeamEstimate, ColouredMediumWeighsTheBeamByTheTransmittanceRatio) {
   const double s = 25.0, dist = 10.0;
   const std::vector<cl_float4> o{{{float(s), 0.1f, float(-dist), 0.0f}}}, d{{{0.0f, 0.0f, 1.0f, float(2 * dist)}}};
   const float radius = 0.5f;
-  const auto got = estimate({b}, {m}, o, d, radius, 0, SPM_NONE);
+  const auto got = estimate({b}, {m}, o, d, radius, 0, 0, SPM_NONE);
   const double mean = (0.02 + 0.05 + 0.1) / 3.0;
   for (int c = 0; c < 3; ++c) {
     const double sigma = m.sigma_t[c];

@@ -108,6 +108,7 @@ struct Case {
   double threshold;  // relMSE bound for N passes (see tests/data/reference/README.md)
   Region skip;       // pixels the reference cannot be trusted in (none: compare all)
   const char* estimator = nullptr;  // the scene's own when null
+  bool final_gather = true;         // the default
 };
 
 struct Renders {
@@ -124,6 +125,7 @@ Renders validate(const Case& c) {
   // loses about 1% of cornell_fog's light), so the comparison lifts the cap.
   scene.integrator.max_bounces = 32;
   if (c.estimator) scene.integrator.estimator = c.estimator;
+  scene.integrator.final_gather = c.final_gather;
   auto render = [&](int passes) {
     spm::RenderSettings s;
     s.passes = passes;
@@ -143,19 +145,26 @@ Renders validate(const Case& c) {
   return r;
 }
 
-// Measured (64x64, 4 spp, 10000 streams x 100, max_bounces 32): relMSE after
-// 2 passes 0.0184 (seed 7, the one used here; seeds 11 and 13: 0.0186,
-// 0.0225), after 8 passes 0.0066 (0.0064, 0.0068); mean ratio spm/volpath
-// 0.993 and 1.000. The bound 0.035 is 1.9x the measured value, 1.55x the
-// worst seed. A missing factor (e.g. the albedo or the phase function's
-// 1/(4 pi) in the beam estimate) moves the mean by tens of percent and the
-// relMSE far past it: the paper estimator stays at 0.033 even after 64 passes.
-TEST(Validation, CornellFogConvergesToMitsuba) { validate({"cornell_fog", 2, 0.035, {}}); }
+// Measured (64x64, the file's 10000 streams x 100 and 61 samples per pass,
+// max_bounces 32), with the final gather (the default): relMSE after 2
+// passes 0.0037 (seed 7, the one used here; seeds 11 and 13: 0.0035,
+// 0.0034), after 8 passes 0.0011; mean ratio spm/volpath 1.004 and 1.006.
+// The bound 0.0065 is 1.75x the worst seed. Without it, reading the maps at
+// the camera's vertex (METHOD.md 5 as written): 0.0117 (0.0130, 0.0120),
+// bound 0.035 as before. A missing factor (e.g. the albedo or the phase
+// function's 1/(4 pi) in the beam estimate) moves the mean by tens of
+// percent and the relMSE far past both: the paper estimator stays at 0.033
+// even after 64 passes.
+TEST(Validation, CornellFogConvergesToMitsuba) { validate({"cornell_fog", 2, 0.0065, {}}); }
 
+TEST(Validation, CornellFogWithoutFinalGatherConvergesToMitsuba) {
+  validate({"cornell_fog", 2, 0.035, {}, nullptr, false});
+}
+
+// Measured (seed 7, with the final gather): 0.0030 after 2 passes, 0.0008
+// after 8.
 TEST(Validation, CornellFogWithStreamBeamsConvergesToMitsuba) {
-  // Measured (seed 7): 0.0110 after 2 passes, 0.0040 after 8 (bre: 0.0117,
-  // 0.0043); mean ratio 1.001 and 1.007.
-  validate({"cornell_fog", 2, 0.025, {}, "beams"});
+  validate({"cornell_fog", 2, 0.0065, {}, "beams"});
 }
 
 // Mitsuba's volpath cannot sample the caustic: the light comes from a delta
@@ -205,9 +214,12 @@ TEST(Validation, AreaLitCausticConvergesToMitsuba) {
 // settings, the fog nested in the sensor; and the same scene with the fog
 // also on every shape. Both render the same image (bit for bit here: the
 // same media everywhere) and match volpath's. Measured, 64x64, defaults
-// (10,000 streams x 4, derived radius 0.143, 2 samples per pass): relMSE
-// after 4 passes 0.0032 (seed 7), 0.0036 and 0.0031 (seeds 11, 13), mean
-// ratio 0.976 to 0.994; the bound 0.006 is 1.7x the worst seed. Streams
+// (10,000 streams x 4, derived radius 0.143, 2 samples per pass, final
+// gather): relMSE after 4 passes 0.0071 (seed 7), 0.0065 and 0.0066 (seeds
+// 11, 13), mean ratio 0.977 to 0.995; the bound 0.012 is 1.7x the worst
+// seed (without the final gather 0.0032 to 0.0036: the gather rays read
+// maps of 4 photons per stream, noisier here than the boundary bias they
+// avoid). Streams
 // starting in vacuum, as before the region rule, lose about a third of the
 // light (issue 12), far past it.
 TEST(Validation, FogBoxWrittenEitherWayMatchesMitsuba) {
@@ -222,7 +234,7 @@ TEST(Validation, FogBoxWrittenEitherWayMatchesMitsuba) {
     s.seed = 7;
     images.push_back(spm::render(scene, s, spm::test::device()));
     const double e = rel_mse(images.back(), ref.image);
-    EXPECT_LT(e, 0.006) << file << ": relMSE " << e << " (mean ratio " << mean_ratio(images.back(), ref.image) << ")";
+    EXPECT_LT(e, 0.012) << file << ": relMSE " << e << " (mean ratio " << mean_ratio(images.back(), ref.image) << ")";
     std::printf("%s: relMSE %.5f after 4 passes (mean ratio %.4f)\n", file.c_str(), e,
                 mean_ratio(images.back(), ref.image));
   }

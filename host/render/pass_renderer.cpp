@@ -90,7 +90,8 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
               (after_scene(device, gpu_) - std::min(after_scene(device, gpu_), propagator_.bytes())) / 4),
       density_kernel_(kDensityKernelOption.code(scene.integrator.density_kernel)),
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
-      direct_(kDirectOption.code(scene.integrator.direct)) {
+      direct_(kDirectOption.code(scene.integrator.direct)),
+      final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE) {
   const size_t used = propagator_.bytes() + gather_.bytes();
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;
   host_budget_ = host_map_budget();
@@ -138,7 +139,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
       part.volume = part_of(maps.volume, k, parts);
     }
     part.surface = part_of(maps.surface, k, parts);
-    MapGridData data = map_grid_data(std::move(part), radius, beam_radius, skip_direct, reach);
+    MapGridData data = map_grid_data(std::move(part), radius, beam_radius, skip_direct, final_gather_, reach);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
@@ -173,6 +174,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;
     params.direct = direct_;
+    params.final_gather = final_gather_ ? 1u : 0u;
     params.direct_terms = direct_terms && k == 0;
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();

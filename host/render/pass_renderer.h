@@ -57,6 +57,7 @@ class PassRenderer {
   glm::vec3 scene_lo_{-INFINITY}, scene_hi_{INFINITY};  // the BVH's bounds: where surface queries can be
   size_t host_budget_ = 0;  // host bytes a pass's maps may hold before they are gathered (SPM_HOST_MEMORY)
   cl_uint density_kernel_, estimator_, direct_;
+  bool final_gather_;
 };
 
 }  // namespace spm

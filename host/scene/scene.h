@@ -103,6 +103,7 @@ struct IntegratorSettings {
   std::string estimator = "bre";    // bre | paper (METHOD.md 5)
   std::string density_kernel = "uniform";  // uniform | epanechnikov
   std::string direct = "nee";       // nee | photons
+  bool final_gather = true;         // one gather ray at the camera's diffuse vertex (with direct nee)
   float alpha = 2.0f / 3.0f;        // radius reduction of progressive passes (METHOD.md 6)
   std::string where;
 };

@@ -103,14 +103,16 @@ size_t MapGridData::bytes() const {
   return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
          vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
          vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
-         vector_bytes(beam.items) + vector_bytes(beams);
+         vector_bytes(beam.items) + vector_bytes(beams) + sizeof(SpmGridInfo) + vector_bytes(caustic.cell_start) +
+         vector_bytes(caustic_pos) + vector_bytes(caustic_flux);
 }
 
-MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, const QueryBounds& reach) {
+MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather,
+                          const QueryBounds& reach) {
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
-  if (skip_direct) {
+  if (skip_direct && !final_gather) {
     // Single scattering comes from next-event estimation (spm_gather.cl,
     // inscatter_nee): a volume record or beam at path vertex 1 has no
     // earlier event.
@@ -119,13 +121,22 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
     beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),
                 beams.end());
   }
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct, reach);
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct && !final_gather, reach);
+  std::vector<SpmSurfaceRecord> caustic;
+  if (final_gather) {
+    for (const SpmSurfaceRecord& r : surface) {
+      if (r.flags & SPM_RECORD_CAUSTIC) caustic.push_back(r);
+    }
+  }
   d.volume = volume_grid(volume, radius);
   d.surface = surface_grid(surface, radius);
+  d.caustic = surface_grid(caustic, radius);
   d.beam = beam_grid(beams, beam_radius);
   d.volume_pos = volume_item_positions(d.volume, volume);
   d.surface_pos = surface_item_positions(d.surface, surface);
   d.surface_flux = surface_item_flux(d.surface, surface);
+  d.caustic_pos = surface_item_positions(d.caustic, caustic);
+  d.caustic_flux = surface_item_flux(d.caustic, caustic);
   d.volume_records = std::move(volume);
   d.beams = std::move(beams);
   return d;
@@ -144,7 +155,11 @@ MapGrids::MapGrids(Device& device, const MapGridData& d)
       beam_info(device.upload("beam_info", std::vector<SpmGridInfo>{d.beam.info})),
       beam_start(device.upload("beam_start", d.beam.cell_start)),
       beam_items(device.upload("beam_items", d.beam.items)),
-      beams(device.upload("beams", d.beams)) {}
+      beams(device.upload("beams", d.beams)),
+      caustic_info(device.upload("caustic_info", std::vector<SpmGridInfo>{d.caustic.info})),
+      caustic_start(device.upload("caustic_start", d.caustic.cell_start)),
+      caustic_pos(device.upload("caustic_pos", d.caustic_pos)),
+      caustic_flux(device.upload("caustic_flux", d.caustic_flux)) {}
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
 #define SPM_MAP_BIND(type, name) bind_arg(k, i++, #name, name);

@@ -60,8 +60,8 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
 // map's sphere grid, the surface map's point grid and the stream beams'
 // capsule grid with their per-item arrays, as MapGrids uploads them.
 struct MapGridData {
-  RecordGrid volume, surface, beam;
-  std::vector<cl_float4> volume_pos, surface_pos, surface_flux;
+  RecordGrid volume, surface, beam, caustic;
+  std::vector<cl_float4> volume_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
   std::vector<SpmVolumeRecord> volume_records;
   std::vector<SpmBeam> beams;
   size_t bytes() const;  // device memory of the upload
@@ -76,8 +76,12 @@ struct MapParts {
 
 // `surface` as the gather uses it (used_surface_records); with next-event
 // estimation (`skip_direct`) the volume records and beams of streams
-// without an earlier event (depth 1) are left out too.
-MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct,
+// without an earlier event (depth 1) are left out too. With a final gather
+// (`final_gather`, which comes with next-event estimation) the gather ray's
+// estimates need every record, so all stay, the camera's own vertex
+// leaving the direct ones out by their depth; the caustic grid then holds
+// the surface records flagged SPM_RECORD_CAUSTIC, read at that vertex.
+MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather = false,
                           const QueryBounds& reach = {});
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound

@@ -28,11 +28,14 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
  * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
  * Records deeper than max_rec_depth (item_pos.w holds the depth) are left
- * out: their paths would be longer than max_depth (METHOD.md 10).
+ * out: their paths would be longer than max_depth (METHOD.md 10); records
+ * shallower than min_rec_depth too (2: single scattering comes from
+ * next-event estimation).
  * *tests counts the records examined (the profile's sphere tests). */
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
-                            uint density_kernel, uint estimator, uint max_rec_depth, uint* tests) {
+                            uint density_kernel, uint estimator, uint min_rec_depth, uint max_rec_depth,
+                            uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (grid->info->records == 0 || !grid_walk_begin(grid->info, o, d, t0, t1, &walk)) return sum;
@@ -46,7 +49,7 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
       const float4 item = grid->item_pos[k];
       const float3 x = item.xyz;
       const float t = dot(x - o, d);
-      if (t < t0 || t > t1 || item.w > (float)max_rec_depth) continue;
+      if (t < t0 || t > t1 || item.w > (float)max_rec_depth || item.w < (float)min_rec_depth) continue;
       const float3 closest = o + t * d;
       const float3 off = x - closest;
       const float d2 = dot(off, off);
@@ -87,13 +90,15 @@ inline float kernel_1d(uint density_kernel, float d2, float r) {
  * instead of the beam's transmittance it carries
  * w(s) = exp(-(sigma_t - mean) s), 1 in a grey medium. Each beam is counted
  * in the one cell of its capsule grid that holds the ray's closest point.
- * Beams deeper than max_rec_depth are left out (METHOD.md 10); beams within
+ * Beams deeper than max_rec_depth or shallower than min_rec_depth are left
+ * out (METHOD.md 10; as in beam_estimate); beams within
  * 1e-3 of parallel to the ray, whose 1 / sin(theta) has no bound, too.
  * *tests counts the beams examined. */
 inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __global uint* cell_start,
                                    const __global uint* items, const __global SpmBeam* beams,
                                    const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1,
-                                   float r, uint density_kernel, uint max_rec_depth, uint* tests) {
+                                   float r, uint density_kernel, uint min_rec_depth, uint max_rec_depth,
+                                   uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (info->records == 0 || !grid_walk_begin(info, o, d, t0, t1, &walk)) return sum;
@@ -106,7 +111,7 @@ inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __glo
     for (uint k = cell_start[c]; k < cell_start[c + 1]; ++k) {
       ++*tests;
       const __global SpmBeam* b = &beams[items[k]];
-      if (b->medium != m || b->depth > max_rec_depth) continue;
+      if (b->medium != m || b->depth > max_rec_depth || b->depth < min_rec_depth) continue;
       const float3 e = vload3(0, b->direction);
       const float3 w0 = o - vload3(0, b->origin);
       const float a = dot(d, e);

@@ -80,7 +80,7 @@ inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStream
     atomic_or(&counts[SPM_COUNT_ERRORS], SPM_ERROR_VOLUME_OVERFLOW);
   }
   st.depth[s] = depth;
-  st.flags[s] |= SPM_STREAM_HAD_EVENT;
+  st.flags[s] = (st.flags[s] | SPM_STREAM_HAD_EVENT) & ~SPM_STREAM_AFTER_SPECULAR;
   const float3 albedo = load3(m->albedo);
   const float w = goes_on(p, st, s, depth, flux * albedo, rng, counts);
   if (w == 0.0f) return SPM_TO_END;
@@ -117,7 +117,7 @@ inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, cons
   }
   atomic_inc(&counts[SPM_COUNT_EV_SPECULAR]);
   st.depth[s] = depth;
-  st.flags[s] |= SPM_STREAM_HAD_EVENT;
+  st.flags[s] |= SPM_STREAM_HAD_EVENT | SPM_STREAM_AFTER_SPECULAR;
   const float w = goes_on(p, st, s, depth, st.phi[s].xyz, rng, counts);
   if (w == 0.0f) return SPM_TO_END;
   st.phi[s] *= (float4)(w, w, w, 1.0f);
@@ -137,9 +137,12 @@ inline uint diffuse_event(const SpmStreamParams* p, SpmStreams st, uint s, const
   atomic_inc(&counts[SPM_COUNT_EV_DIFFUSE]);
   if (!depth_counts(depth, p->max_depth)) return end_stream(st, s, SPM_END_DEPTH, counts, SPM_COUNT_END_DEPTH);
   st.event_pos[s] = (float4)(surf->p, 0.0f);
-  st.event_dir[s] = (float4)(d, (st.flags[s] & SPM_STREAM_HAD_EVENT) ? 1.0f : 0.0f);
+  const uint flags = st.flags[s];
+  const uint record = ((flags & SPM_STREAM_HAD_EVENT) ? SPM_RECORD_HAD_EVENT : 0u) |
+                      ((flags & SPM_STREAM_AFTER_SPECULAR) ? SPM_RECORD_CAUSTIC : 0u);
+  st.event_dir[s] = (float4)(d, (float)record);
   st.event_normal[s] = (float4)(dot(d, surf->ng) < 0.0f ? surf->ng : -surf->ng, 0.0f);
-  st.flags[s] |= SPM_STREAM_HAD_EVENT;
+  st.flags[s] = (flags | SPM_STREAM_HAD_EVENT) & ~SPM_STREAM_AFTER_SPECULAR;
   st.depth[s] = depth;
   const float3 reflectance = load3(mat->reflectance);
   if (++st.bounces[s] >= p->max_bounces) {

@@ -21,6 +21,7 @@
 #define SPM_RNG_EMIT 8u
 #define SPM_RNG_ROULETTE 10u
 #define SPM_RNG_MEDIUM_NEE 11u
+#define SPM_RNG_FINAL_GATHER 12u
 
 typedef struct SpmRng {
   uint seed;
