@@ -330,3 +330,72 @@ TEST(Progressive, RadiusScheduleFollowsKnausZwicker) {
 }
 
 }  // namespace
+
+namespace {
+
+// The final gather's irradiance points (kernels/lib/estimate.h,
+// nearest_irradiance_point): the point a lookup picks is the nearest one
+// within r in the query's tangent disk whose normal is within 60 degrees,
+// as a brute-force search over every point finds it, or none.
+TEST(IrradiancePoints, LookupPicksTheNearestPointInTheDisk) {
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  // Points on the floor (y = 0) and on a wall (x = 0), a few tilted.
+  std::vector<SpmSurfaceRecord> points(3000);
+  for (auto& p : points) {
+    const bool floor = u(rng) < 0.5f;
+    const float a = 20 * u(rng), b = 20 * u(rng);
+    p.position[0] = floor ? a : 0.0f;
+    p.position[1] = floor ? 0.0f : a;
+    p.position[2] = b;
+    const float tilt = u(rng) < 0.1f ? 0.9f : 0.0f;
+    const glm::vec3 n = glm::normalize(floor ? glm::vec3(tilt, 1.0f, 0.0f) : glm::vec3(1.0f, tilt, 0.0f));
+    for (int c = 0; c < 3; ++c) p.normal[c] = n[c];
+  }
+  const float radius = 0.7f;
+  const spm::RecordGrid grid = spm::surface_grid(points, radius);
+  const auto pos = spm::surface_item_positions(grid, points);
+  auto& dev = spm::test::device();
+  const int n = 500;
+  std::vector<cl_float4> queries(n), normals(n);
+  for (int i = 0; i < n; ++i) {
+    const bool floor = i % 2 == 0;
+    const float a = 20 * u(rng), b = 20 * u(rng);
+    queries[i] = floor ? cl_float4{{a, 0.0f, b, 0.0f}} : cl_float4{{0.0f, a, b, 0.0f}};
+    normals[i] = floor ? cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}} : cl_float4{{1.0f, 0.0f, 0.0f, 0.0f}};
+  }
+  const cl::Buffer info = dev.upload("info", std::vector<SpmGridInfo>{grid.info});
+  const cl::Buffer start = dev.upload("cell_start", grid.cell_start), items = dev.upload("item_pos", pos);
+  const cl::Buffer qb = dev.upload("points", queries), nb = dev.upload("normals", normals);
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_uint) * n, "picked", CL_MEM_WRITE_ONLY);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_irradiance_point_test");
+  spm::set_args(k, spm::arg("info", info), spm::arg("cell_start", start), spm::arg("item_pos", items),
+                spm::arg("points", qb), spm::arg("normals", nb), spm::arg("out", out), spm::arg("count", cl_uint(n)),
+                spm::arg("radius", radius));
+  dev.launch(k, n);
+  const auto got = dev.download<cl_uint>(out, n);
+  int found = 0;
+  for (int i = 0; i < n; ++i) {
+    const dvec3 x(queries[i].s[0], queries[i].s[1], queries[i].s[2]), nq(normals[i].s[0], normals[i].s[1], normals[i].s[2]);
+    double best = radius * radius;
+    int64_t want = -1;
+    for (size_t j = 0; j < grid.items.size(); ++j) {
+      const SpmSurfaceRecord& p = points[grid.items[j]];
+      const dvec3 off = v3(p.position) - x;
+      const double d2 = glm::dot(off, off);
+      if (d2 >= best || std::abs(glm::dot(off, nq)) > 0.1 * radius) continue;
+      if (glm::dot(v3(p.normal), nq) <= 0.5 + 0.01) continue;  // the packed normal rounds by 1/511
+      best = d2;
+      want = int64_t(j);
+    }
+    if (want < 0) continue;  // a tilted point alone within reach may or may not count after packing
+    ++found;
+    ASSERT_NE(got[i], SPM_NONE) << "query " << i;
+    const SpmSurfaceRecord& p = points[grid.items[got[i]]];
+    const dvec3 off = v3(p.position) - x;
+    EXPECT_NEAR(glm::dot(off, off), best, 1e-5) << "query " << i;
+  }
+  EXPECT_GT(found, n / 2);
+}
+
+}  // namespace
