@@ -2,8 +2,7 @@
  * that they can be compared with a brute-force sum on the host.
  * spm_beam_test: one work-item per ray segment (origin xyz + t0, direction
  * xyz + t1); spm_stream_beam_test likewise over stream beams.
- * spm_surface_test: one per query point (xyz) with normal (xyz);
- * spm_irradiance_point_test likewise, for the final gather's point lookup. */
+ * spm_surface_test: one per query point (xyz) with normal (xyz). */
 #include "spm_types.h"
 #include "lib/estimate.h"
 
@@ -47,16 +46,4 @@ __kernel void spm_surface_test(const __global SpmGridInfo* info, const __global 
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   out[i] = (float4)(
       surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, density_kernel, max_rec_depth), 0.0f);
-}
-
-/* spm_irradiance_point_test: one work-item per query point (xyz) with
- * normal (xyz): the item index nearest_irradiance_point picks, or SPM_NONE. */
-__kernel void spm_irradiance_point_test(const __global SpmGridInfo* info, const __global uint* cell_start,
-                                        const __global float4* item_pos, const __global float4* points,
-                                        const __global float4* normals, __global uint* out, uint count,
-                                        float radius) {
-  const uint i = get_global_id(0);
-  if (i >= count) return;
-  const SpmGrid grid = make_grid(info, cell_start, item_pos);
-  out[i] = nearest_irradiance_point(&grid, points[i].xyz, normals[i].xyz, radius);
 }

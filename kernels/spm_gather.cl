@@ -33,15 +33,12 @@ typedef struct SpmMaps {
   const __global float4* surface_flux;
   SpmGrid caustic_grid;
   const __global float4* caustic_flux;
-  SpmGrid irradiance_grid;
-  const __global float4* irradiance;
   float radius;
   float beam_radius;
   uint density_kernel;
   uint estimator;
   uint direct;
   uint final_gather;
-  uint use_irradiance;
 } SpmMaps;
 
 /* Null boundaries a shadow ray may cross before it counts as blocked; scenes
@@ -185,15 +182,9 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       continue;
     }
     if (m->type == SPM_MAT_DIFFUSE && reflects_from(m, &y, wi)) {
-      /* The precomputed flux density of the nearest irradiance point
-       * (Christensen 1999) where there is one, else the records' sum. */
-      const float3 n = facing_normal(&y, wi);
-      const uint k = maps->use_irradiance ? nearest_irradiance_point(&maps->irradiance_grid, y.p, n, maps->radius)
-                                          : SPM_NONE;
-      const float3 e = k != SPM_NONE ? maps->irradiance[k].xyz
-                                     : surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, n, maps->radius,
-                                                        maps->density_kernel, max_depth);
-      li += tr * load3(m->reflectance) * SPM_INV_PI * e;
+      li += tr * load3(m->reflectance) * SPM_INV_PI *
+            surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, facing_normal(&y, wi), maps->radius,
+                             maps->density_kernel, max_depth);
     }
     break;
   }
@@ -318,9 +309,6 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.caustic_grid = make_grid(caustic_info, caustic_start, caustic_pos);
   maps.caustic_flux = caustic_flux;
   maps.final_gather = params.final_gather;
-  maps.irradiance_grid = make_grid(irradiance_info, irradiance_start, irradiance_pos);
-  maps.irradiance = irradiance;
-  maps.use_irradiance = params.irradiance;
   maps.radius = params.radius;
   maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;

@@ -58,7 +58,7 @@
   F(SpmGatherParams, seed) F(SpmGatherParams, pass) F(SpmGatherParams, spp)                     \
   F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
-  F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, irradiance) \
+  F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather)                              \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

@@ -22,11 +22,7 @@
   X(SpmGridInfo, caustic_info) /* final gather: the caustic surface records' point grid */ \
   X(uint, caustic_start)       /* its cells' first items (CSR) */                         \
   X(float4, caustic_pos)       /* per item: position; w: the packed normal */             \
-  X(float4, caustic_flux)      /* per item: flux; w: depth */                             \
-  X(SpmGridInfo, irradiance_info) /* final gather: the irradiance points' point grid */   \
-  X(uint, irradiance_start)    /* its cells' first items (CSR) */                         \
-  X(float4, irradiance_pos)    /* per item: position; w: the packed normal */             \
-  X(float4, irradiance)        /* per item: flux density (spm_irradiance.cl) */
+  X(float4, caustic_flux)      /* per item: flux; w: depth */
 
 #ifdef __OPENCL_VERSION__
 #define SPM_MAP_PARAM(type, name) , const __global type *name

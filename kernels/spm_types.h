@@ -244,7 +244,7 @@ typedef struct SpmGatherParams {
   spm_uint direct_terms;   /* 0: the photon estimates alone (a later part of the maps) */
   spm_float beam_radius;   /* the stream beams' 1D kernel radius in the pass */
   spm_uint final_gather;   /* 1: one gather ray at the camera's diffuse vertex (with SPM_DIRECT_NEE) */
-  spm_uint irradiance;     /* 1: the gather rays read the precomputed irradiance points */
+  spm_uint pad;
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -122,9 +122,6 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
   const bool skip_direct = direct_ == SPM_DIRECT_NEE;
   const cl_uint max_depth = in.max_depth < 0 ? SPM_NONE : cl_uint(in.max_depth);
   const bool beams = estimator_ == SPM_ESTIMATOR_BEAMS;
-  // Precomputed irradiance serves the gather rays when every record may
-  // count: a depth limit makes the records a ray may read depend on its path.
-  const bool irradiance = final_gather_ && max_depth == SPM_NONE;
   const size_t records = (beams ? maps.beams.size() : maps.volume.size()) + maps.surface.size();
   std::vector<float> rgb(pixels * 3, 0.0f);
   uint64_t tests = 0;
@@ -142,8 +139,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
       part.volume = part_of(maps.volume, k, parts);
     }
     part.surface = part_of(maps.surface, k, parts);
-    MapGridData data =
-        map_grid_data(std::move(part), radius, beam_radius, skip_direct, final_gather_, irradiance, reach);
+    MapGridData data = map_grid_data(std::move(part), radius, beam_radius, skip_direct, final_gather_, reach);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
@@ -179,7 +175,6 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.estimator = estimator_;
     params.direct = direct_;
     params.final_gather = final_gather_ ? 1u : 0u;
-    params.irradiance = irradiance ? 1u : 0u;
     params.direct_terms = direct_terms && k == 0;
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();

@@ -22,7 +22,6 @@ Gather::Gather(Device& device, const GpuScene& scene, size_t pixels, size_t shar
       pixels_(pixels),
       tile_(tile_size(device, pixels, share)),
       kernel_(device.kernel("spm_gather", "spm_gather")),
-      irradiance_kernel_(device.kernel("spm_irradiance", "spm_irradiance")),
       film_(device.buffer(sizeof(cl_float4) * tile_, "film", CL_MEM_WRITE_ONLY)),
       sphere_tests_(device.buffer(sizeof(cl_uint) * tile_, "sphere_tests", CL_MEM_WRITE_ONLY)),
       errors_(device.buffer(sizeof(cl_uint), "errors")) {
@@ -33,7 +32,6 @@ Gather::Gather(Device& device, const GpuScene& scene, size_t pixels, size_t shar
 uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& rgb) {
   // The film of a whole image may not fit one allocation: tiles of pixels.
   uint64_t tests = 0;
-  if (params.irradiance) grids.compute_irradiance(device_, irradiance_kernel_, params.radius, params.density_kernel);
   for (size_t first = 0; first < pixels_; first += tile_) {
     const size_t count = std::min(tile_, pixels_ - first);
     set_args(kernel_, scene_, arg("params", params), arg("camera", scene_.camera()), arg("film", film_),

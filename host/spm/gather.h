@@ -27,7 +27,6 @@ class Gather {
 
   // Adds the mean radiance of each pixel's samples over `grids` to rgb
   // (pixels x 3); returns the sphere tests the estimates made.
-  // With params.irradiance, first precomputes the grids' irradiance points.
   uint64_t run(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& rgb);
 
   // Whether a pixel's radiance was NaN or infinite since the last call.
@@ -37,7 +36,7 @@ class Gather {
   Device& device_;
   const GpuScene& scene_;
   size_t pixels_ = 0, tile_ = 0;
-  cl::Kernel kernel_, irradiance_kernel_;
+  cl::Kernel kernel_;
   DeviceBuffer film_, sphere_tests_, errors_;
 };
 

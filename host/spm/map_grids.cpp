@@ -104,12 +104,11 @@ size_t MapGridData::bytes() const {
          vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
          vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
          vector_bytes(beam.items) + vector_bytes(beams) + sizeof(SpmGridInfo) + vector_bytes(caustic.cell_start) +
-         vector_bytes(caustic_pos) + vector_bytes(caustic_flux) + sizeof(SpmGridInfo) +
-         vector_bytes(irradiance.cell_start) + 2 * vector_bytes(irradiance_pos);
+         vector_bytes(caustic_pos) + vector_bytes(caustic_flux);
 }
 
 MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather,
-                          bool irradiance_points, const QueryBounds& reach) {
+                          const QueryBounds& reach) {
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
@@ -129,12 +128,6 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
       if (r.flags & SPM_RECORD_CAUSTIC) caustic.push_back(r);
     }
   }
-  std::vector<SpmSurfaceRecord> points;
-  if (final_gather && irradiance_points) {
-    for (size_t i = 0; i < surface.size(); i += kIrradianceStride) points.push_back(surface[i]);
-  }
-  d.irradiance = surface_grid(points, radius);
-  d.irradiance_pos = surface_item_positions(d.irradiance, points);
   d.volume = volume_grid(volume, radius);
   d.surface = surface_grid(surface, radius);
   d.caustic = surface_grid(caustic, radius);
@@ -166,21 +159,7 @@ MapGrids::MapGrids(Device& device, const MapGridData& d)
       caustic_info(device.upload("caustic_info", std::vector<SpmGridInfo>{d.caustic.info})),
       caustic_start(device.upload("caustic_start", d.caustic.cell_start)),
       caustic_pos(device.upload("caustic_pos", d.caustic_pos)),
-      caustic_flux(device.upload("caustic_flux", d.caustic_flux)),
-      irradiance_info(device.upload("irradiance_info", std::vector<SpmGridInfo>{d.irradiance.info})),
-      irradiance_start(device.upload("irradiance_start", d.irradiance.cell_start)),
-      irradiance_pos(device.upload("irradiance_pos", d.irradiance_pos)),
-      irradiance(device.buffer(sizeof(cl_float4) * std::max<size_t>(1, d.irradiance_pos.size()), "irradiance")),
-      irradiance_points_(static_cast<cl_uint>(d.irradiance_pos.size())) {}
-
-void MapGrids::compute_irradiance(Device& device, cl::Kernel& kernel, float radius, cl_uint density_kernel) const {
-  if (irradiance_points_ == 0) return;
-  set_args(kernel, arg("surface_info", surface_info), arg("surface_start", surface_start),
-           arg("surface_pos", surface_pos), arg("surface_flux", surface_flux), arg("irradiance_pos", irradiance_pos),
-           arg("irradiance", irradiance), arg("count", irradiance_points_), arg("radius", radius),
-           arg("density_kernel", density_kernel));
-  device.launch(kernel, irradiance_points_);
-}
+      caustic_flux(device.upload("caustic_flux", d.caustic_flux)) {}
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
 #define SPM_MAP_BIND(type, name) bind_arg(k, i++, #name, name);

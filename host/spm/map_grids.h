@@ -24,15 +24,6 @@ inline constexpr float kSurfaceCell = 1.0f;
 // in about pi (1 + sqrt(3)/2 kBeamCell)^2 L / (kBeamCell^3 r) cells.
 inline constexpr float kBeamCell = 1.5f;
 
-// With a final gather, one surface record in kIrradianceStride (in map
-// order) becomes an irradiance point, where spm_irradiance precomputes the
-// surface estimate that the gather rays read (Christensen 1999). A derived
-// radius holds about 32 streams' records (4 photons each by default) per
-// disk, so about 16 points: a gather ray's lookup reads the few points of
-// the nearby cells instead of some hundreds of records, and the records
-// are summed at an eighth of them.
-inline constexpr size_t kIrradianceStride = 8;
-
 // The gather's grids: the volume map's sphere grid and the surface map's
 // point grid (host/spm/record_grid.h).
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
@@ -69,8 +60,8 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
 // map's sphere grid, the surface map's point grid and the stream beams'
 // capsule grid with their per-item arrays, as MapGrids uploads them.
 struct MapGridData {
-  RecordGrid volume, surface, beam, caustic, irradiance;
-  std::vector<cl_float4> volume_pos, surface_pos, surface_flux, caustic_pos, caustic_flux, irradiance_pos;
+  RecordGrid volume, surface, beam, caustic;
+  std::vector<cl_float4> volume_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
   std::vector<SpmVolumeRecord> volume_records;
   std::vector<SpmBeam> beams;
   size_t bytes() const;  // device memory of the upload
@@ -90,10 +81,8 @@ struct MapParts {
 // estimates need every record, so all stay, the camera's own vertex
 // leaving the direct ones out by their depth; the caustic grid then holds
 // the surface records flagged SPM_RECORD_CAUSTIC, read at that vertex.
-// With `irradiance_points` (a final gather without a depth limit) every
-// kIrradianceStride-th surface record is an irradiance point too.
 MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather = false,
-                          bool irradiance_points = false, const QueryBounds& reach = {});
+                          const QueryBounds& reach = {});
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound
 // under their names after the gather's own arguments.
@@ -103,14 +92,10 @@ class MapGrids {
 
   cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
 
-  // Fills the irradiance points' flux densities by spm_irradiance (`kernel`).
-  void compute_irradiance(Device& device, cl::Kernel& kernel, float radius, cl_uint density_kernel) const;
-
  private:
 #define SPM_MAP_BUFFER(type, name) DeviceBuffer name;
   SPM_MAP_BUFFERS(SPM_MAP_BUFFER)
 #undef SPM_MAP_BUFFER
-  cl_uint irradiance_points_ = 0;
 };
 
 }  // namespace spm

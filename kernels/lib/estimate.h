@@ -181,33 +181,4 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
   return sum;
 }
 
-/* The precomputed flux density (spm_irradiance.cl) of the point nearest
- * to x, among the points within r of x in its tangent plane (the disk of
- * surface_estimate) whose normal lies within 60 degrees of n; SPM_NONE
- * when there is none. */
-inline uint nearest_irradiance_point(const SpmGrid* grid, float3 x, float3 n, float r) {
-  uint found = SPM_NONE;
-  if (grid->info->records == 0) return found;
-  float best = r * r;
-  const float reach = r * 1.00001f;
-  const int3 c0 = grid_cell_of(grid->info, x - reach);
-  const int3 c1 = grid_cell_of(grid->info, x + reach);
-  for (int z = c0.z; z <= c1.z; ++z) {
-    for (int y = c0.y; y <= c1.y; ++y) {
-      const uint row = grid_cell_index(grid->info, (int3)(c0.x, y, z));
-      const uint end = grid->cell_start[row + (uint)(c1.x - c0.x) + 1u];
-      for (uint k = grid->cell_start[row]; k < end; ++k) {
-        const float4 p = grid->item_pos[k];
-        const float3 off = p.xyz - x;
-        const float d2 = dot(off, off);
-        if (d2 >= best || fabs(dot(off, n)) > SPM_DISK_THICKNESS * r) continue;
-        if (dot(unpack_normal(as_uint(p.w)), n) <= 0.5f) continue;
-        best = d2;
-        found = k;
-      }
-    }
-  }
-  return found;
-}
-
 #endif
