@@ -102,19 +102,6 @@ std::vector<cl_float4> estimate(const std::vector<SpmBeam>& beams, const std::ve
   return dev.download<cl_float4>(out, n);
 }
 
-SpmMedium coloured_medium() {
-  SpmMedium m{};
-  m.sigma_t[0] = 0.02f;
-  m.sigma_t[1] = 0.05f;
-  m.sigma_t[2] = 0.1f;
-  m.albedo[0] = 0.9f;
-  m.albedo[1] = 0.5f;
-  m.albedo[2] = 0.3f;
-  m.phase = SPM_PHASE_HG;
-  m.g = 0.4f;
-  return m;
-}
-
 class StreamBeamEstimate : public ::testing::TestWithParam<std::tuple<int, uint32_t>> {};
 
 TEST_P(StreamBeamEstimate, EqualsTheBruteForceSum) {
@@ -150,7 +137,7 @@ TEST_P(StreamBeamEstimate, EqualsTheBruteForceSum) {
     origins[i] = {{o.x, o.y, o.z, t0}};
     dirs[i] = {{d.x, d.y, d.z, t1}};
   }
-  const SpmMedium m = coloured_medium();
+  const SpmMedium m = spm::test::coloured_medium();
   const auto got = estimate(beams, {m, m}, origins, dirs, radius, kernel, min_depth, max_depth);
   int nonzero = 0;
   for (int i = 0; i < n; ++i) {
@@ -228,7 +215,7 @@ TEST(StreamBeamEstimate, OneBeamsIntegralOverOffsetsIsTheClosedForm) {
 // weighed by exp(-(sigma_t - mean) s): the march sampled the flight with
 // the channels' mean.
 TEST(StreamBeamEstimate, ColouredMediumWeighsTheBeamByTheTransmittanceRatio) {
-  const SpmMedium m = coloured_medium();
+  const SpmMedium m = spm::test::coloured_medium();
   SpmBeam b{};
   b.direction[0] = 1.0f;
   b.length = 40.0f;
@@ -288,7 +275,10 @@ TEST(CapsuleGrid, EveryPointWithinTheRadiusFindsTheBeamInItsCell) {
 // The beams march writes: for every stream, the beam of depth k ends where
 // its record of depth k lies (the medium event it flew to) and carries the
 // flux the record does (a grey medium: no reweighting), scaled by
-// N_s / beam_streams; streams past beam_streams write none.
+// N_s / beam_streams; streams past beam_streams write none. The records
+// come from the same streams propagated without beams (beams draw no random
+// numbers), since a propagation with beams writes no records: the gather
+// would not read them.
 TEST(StreamBeams, EachBeamEndsAtTheStreamsNextEvent) {
   const std::string xml = R"(<scene version="3.0.0">
   <medium type="homogeneous" id="m"><float name="sigma_t" value="0.2"/><float name="albedo" value="0.8"/>
@@ -307,8 +297,12 @@ TEST(StreamBeams, EachBeamEndsAtTheStreamsNextEvent) {
   const spm::PhotonMaps maps = spm::propagate_streams(spm::test::device(), gpu, s);
   ASSERT_GT(maps.beams.size(), 1000u);
   EXPECT_EQ(maps.stats.counters[SPM_COUNT_BEAMS], maps.beams.size());
+  EXPECT_TRUE(maps.volume.empty());
+  s.beams = false;
+  const spm::PhotonMaps points = spm::propagate_streams(spm::test::device(), gpu, s);
+  EXPECT_TRUE(points.beams.empty());
   std::map<std::pair<uint32_t, uint32_t>, const SpmVolumeRecord*> records;
-  for (const SpmVolumeRecord& r : maps.volume) records[{r.stream, r.depth}] = &r;
+  for (const SpmVolumeRecord& r : points.volume) records[{r.stream, r.depth}] = &r;
   size_t matched = 0;
   for (const SpmBeam& b : maps.beams) {
     ASSERT_LT(b.stream, s.beam_streams);
@@ -325,7 +319,7 @@ TEST(StreamBeams, EachBeamEndsAtTheStreamsNextEvent) {
   }
   // Every record of the streams that write beams has its beam.
   size_t owned = 0;
-  for (const SpmVolumeRecord& r : maps.volume) owned += r.stream < s.beam_streams;
+  for (const SpmVolumeRecord& r : points.volume) owned += r.stream < s.beam_streams;
   EXPECT_EQ(matched, owned);
 }
 

@@ -93,6 +93,8 @@ Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot
     // The leaders' events alone: one photon per stream, at its leader.
     st.associated = 1;
     st.stream_width = 0.0f;
+    // The pilot reads the events' positions (the volume records), never beams.
+    st.beams = false;
     StreamPropagator propagator(device, gpu, st);
     Timer timer;
     const PhotonMaps maps = propagator.propagate(0, 0.0f);

@@ -56,8 +56,9 @@ inline float goes_on(const SpmStreamParams* p, SpmStreams st, uint s, uint depth
 }
 
 /* Medium event at distance t along the leader's ray: ONE volumetric stream
- * map record {x, direction, n phi}, a new direction from the phase
- * function, and absorption with survival = mean albedo. */
+ * map record {x, direction, n phi} (none when the gather reads stream
+ * beams, beam_capacity > 0: it would not read the record), a new direction
+ * from the phase function, and absorption with survival = mean albedo. */
 inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStreams st, uint s, float t, SpmRng rng,
                          __global SpmVolumeRecord* volume, __global uint* counts) {
   const uint depth = st.depth[s] + 1u;
@@ -67,17 +68,19 @@ inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStream
   const float3 x = st.origin[s].xyz + t * d;
   const __global SpmMedium* m = &sc->media[st.medium[s]];
   const float3 flux = (float)st.alive[s] * st.phi[s].xyz;
-  const uint slot = atomic_inc(&counts[SPM_COUNT_VOLUME]);
-  if (slot < p->volume_capacity) {
-    __global SpmVolumeRecord* r = &volume[slot];
-    vstore3(x, 0, r->position);
-    vstore3(d, 0, r->direction);
-    vstore3(flux, 0, r->flux);
-    r->stream = st.id[s];
-    r->depth = depth;
-    r->medium = st.medium[s];
-  } else {
-    atomic_or(&counts[SPM_COUNT_ERRORS], SPM_ERROR_VOLUME_OVERFLOW);
+  if (p->beam_capacity == 0) {
+    const uint slot = atomic_inc(&counts[SPM_COUNT_VOLUME]);
+    if (slot < p->volume_capacity) {
+      __global SpmVolumeRecord* r = &volume[slot];
+      vstore3(x, 0, r->position);
+      vstore3(d, 0, r->direction);
+      vstore3(flux, 0, r->flux);
+      r->stream = st.id[s];
+      r->depth = depth;
+      r->medium = st.medium[s];
+    } else {
+      atomic_or(&counts[SPM_COUNT_ERRORS], SPM_ERROR_VOLUME_OVERFLOW);
+    }
   }
   st.depth[s] = depth;
   st.flags[s] = (st.flags[s] | SPM_STREAM_HAD_EVENT) & ~SPM_STREAM_AFTER_SPECULAR;
