@@ -98,15 +98,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   const uint32_t min_depth = max_depth == SPM_NONE ? 0u : 2u;
   std::mt19937 rng(99);
   std::uniform_real_distribution<float> pos(-20.0f, 20.0f), flux(0.0f, 2.0f), unit(-1.0f, 1.0f);
-  SpmMedium medium{};
-  medium.sigma_t[0] = 0.02f;
-  medium.sigma_t[1] = 0.05f;
-  medium.sigma_t[2] = 0.1f;
-  medium.albedo[0] = 0.9f;
-  medium.albedo[1] = 0.5f;
-  medium.albedo[2] = 0.3f;
-  medium.phase = SPM_PHASE_HG;
-  medium.g = 0.4f;
+  const SpmMedium medium = spm::test::coloured_medium();
   std::vector<SpmVolumeRecord> records(20000);
   for (auto& r : records) {
     for (int c = 0; c < 3; ++c) {

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "device/device.h"
+#include "spm_types.h"
 
 namespace spm::test {
 
@@ -36,6 +37,21 @@ inline int marked_line(const std::string& text) {
   const size_t at = text.find("<!--here-->");
   EXPECT_NE(at, std::string::npos) << "text without <!--here-->";
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+}
+
+// A coloured Henyey-Greenstein medium for the estimates' brute-force tests:
+// sigma_t and albedo differ per channel, so a channel mixed up shows.
+inline SpmMedium coloured_medium() {
+  SpmMedium m{};
+  m.sigma_t[0] = 0.02f;
+  m.sigma_t[1] = 0.05f;
+  m.sigma_t[2] = 0.1f;
+  m.albedo[0] = 0.9f;
+  m.albedo[1] = 0.5f;
+  m.albedo[2] = 0.3f;
+  m.phase = SPM_PHASE_HG;
+  m.g = 0.4f;
+  return m;
 }
 
 }  // namespace spm::test
