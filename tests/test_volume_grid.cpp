@@ -1,6 +1,8 @@
-// Volume grids: the .vol round trip, every class of bad .vol file, and the
-// lookup by hand and against Mitsuba 3's gridvolume.
+// Volume grids: the .vol round trip, every class of bad .vol file, the
+// lookup by hand and against Mitsuba 3's gridvolume, and OpenVDB float grids.
 #include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
 
 #include <cmath>
 #include <cstdint>
@@ -318,6 +320,123 @@ TEST_F(VolumeGrid, MatchesMitsubaGridvolume) {
   // The same float operations, fused where the Mitsuba 3.9.1 wheel fuses them.
   EXPECT_EQ(worst["nearest"], 0.0);
   EXPECT_EQ(worst["trilinear"], 0.0);
+}
+
+// OpenVDB files, written here with OpenVDB's API.
+openvdb::FloatGrid::Ptr float_grid(const std::string& name, float background = 0.0f) {
+  openvdb::initialize();
+  openvdb::FloatGrid::Ptr g = openvdb::FloatGrid::create(background);
+  g->setName(name);
+  return g;
+}
+
+void write_vdb(const std::string& file, const openvdb::GridPtrVec& grids) {
+  openvdb::io::File out(file);
+  out.write(grids);
+  out.close();
+}
+
+// Voxels at index (-1, 0, 2) .. (2, 3, 4), world = index * (0.5, 0.25, 2) + (1, 2, 3).
+openvdb::FloatGrid::Ptr density() {
+  openvdb::FloatGrid::Ptr g = float_grid("density", 0.125f);
+  openvdb::math::Transform::Ptr t = openvdb::math::Transform::createLinearTransform(1.0);
+  t->postScale(openvdb::Vec3d(0.5, 0.25, 2.0));
+  t->postTranslate(openvdb::Vec3d(1.0, 2.0, 3.0));
+  g->setTransform(t);
+  openvdb::FloatGrid::Accessor acc = g->getAccessor();
+  acc.setValue(openvdb::Coord(-1, 0, 2), 1.5f);
+  acc.setValue(openvdb::Coord(2, 3, 4), 4.0f);
+  acc.setValue(openvdb::Coord(0, 1, 3), 0.0f);
+  acc.setValueOff(openvdb::Coord(1, 2, 3), 9.0f);  // inactive: read as the background
+  return g;
+}
+
+TEST_F(VolumeGrid, ReadsAnOpenVdbFloatGrid) {
+  openvdb::Vec3SGrid::Ptr velocity = openvdb::Vec3SGrid::create();
+  velocity->setName("velocity");
+  write_vdb(path("smoke.vdb"), {velocity, density()});
+  const Grid g = spm::read_vdb(path("smoke.vdb"), "density");
+  ASSERT_EQ(g.nx, 4u);
+  ASSERT_EQ(g.ny, 4u);
+  ASSERT_EQ(g.nz, 3u);
+  EXPECT_EQ(g.channels, 1u);
+  ASSERT_EQ(g.data.size(), 48u);
+  // The box of the voxels: index (-1.5, -0.5, 1.5) .. (2.5, 3.5, 4.5) mapped.
+  EXPECT_EQ(g.bbox_min, glm::vec3(0.25f, 1.875f, 6.0f));
+  EXPECT_EQ(g.bbox_max, glm::vec3(2.25f, 2.875f, 12.0f));
+  const auto at = [&](int x, int y, int z) { return g.data[(size_t(z - 2) * 4 + y) * 4 + (x + 1)]; };
+  EXPECT_EQ(at(-1, 0, 2), 1.5f);
+  EXPECT_EQ(at(2, 3, 4), 4.0f);
+  EXPECT_EQ(at(0, 1, 3), 0.0f);
+  EXPECT_EQ(at(1, 2, 3), 0.125f);
+  EXPECT_EQ(at(2, 0, 2), 0.125f);
+  EXPECT_EQ(g.max_value(), 4.0f);
+}
+
+TEST_F(VolumeGrid, VdbGridMissing) {
+  openvdb::Vec3SGrid::Ptr velocity = openvdb::Vec3SGrid::create();
+  velocity->setName("velocity");
+  write_vdb(path("smoke.vdb"), {velocity, density()});
+  try {
+    spm::read_vdb(path("smoke.vdb"), "heat");
+    FAIL() << "read_vdb found a grid 'heat'";
+  } catch (const spm::InputError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind(path("smoke.vdb") + ": no grid named 'heat' (grids: ", 0), 0u) << m;
+    EXPECT_NE(m.find("'density'"), std::string::npos) << m;
+    EXPECT_NE(m.find("'velocity'"), std::string::npos) << m;
+  }
+}
+
+// The message of the InputError read_vdb throws; "" (and a failure) if none.
+std::string vdb_refusal(const std::string& file, const std::string& grid) {
+  try {
+    spm::read_vdb(file, grid);
+    ADD_FAILURE() << "read_vdb accepted grid '" << grid << "' of " << file;
+  } catch (const spm::InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    return e.what();
+  }
+  return "";
+}
+
+TEST_F(VolumeGrid, BadVdbFiles) {
+  EXPECT_NE(vdb_refusal(path("none.vdb"), "density").find("file does not exist"), std::string::npos);
+  EXPECT_NE(vdb_refusal(write("text.vdb", "not a vdb file\n"), "density").find("cannot read as an OpenVDB file"),
+            std::string::npos);
+
+  openvdb::Vec3SGrid::Ptr velocity = openvdb::Vec3SGrid::create();
+  velocity->setName("velocity");
+  openvdb::FloatGrid::Ptr empty = float_grid("empty");
+  openvdb::FloatGrid::Ptr level_set = float_grid("sdf", 0.3f);
+  level_set->setGridClass(openvdb::GRID_LEVEL_SET);
+  level_set->tree().setValue(openvdb::Coord(0), -0.1f);
+  openvdb::FloatGrid::Ptr negative = float_grid("negative");
+  negative->tree().setValue(openvdb::Coord(3, -2, 5), -2.0f);
+  openvdb::FloatGrid::Ptr bad_background = float_grid("bad_background", -1.0f);
+  bad_background->tree().setValue(openvdb::Coord(0), 1.0f);
+  bad_background->tree().setValue(openvdb::Coord(2, 0, 0), 1.0f);
+  openvdb::FloatGrid::Ptr rotated = float_grid("rotated");
+  rotated->transform().postRotate(0.3, openvdb::math::Y_AXIS);
+  rotated->tree().setValue(openvdb::Coord(0), 1.0f);
+  openvdb::FloatGrid::Ptr frustum = float_grid("frustum");
+  frustum->setTransform(openvdb::math::Transform::createFrustumTransform(
+      openvdb::BBoxd(openvdb::Vec3d(0.0), openvdb::Vec3d(10.0)), 0.5, 2.0));
+  frustum->tree().setValue(openvdb::Coord(0), 1.0f);
+  write_vdb(path("bad.vdb"), {velocity, empty, level_set, negative, bad_background, rotated, frustum});
+
+  const std::string file = path("bad.vdb");
+  EXPECT_NE(vdb_refusal(file, "velocity").find("grid 'velocity' holds vec3s values, not float"), std::string::npos);
+  EXPECT_NE(vdb_refusal(file, "empty").find("grid 'empty' has no active voxels"), std::string::npos);
+  EXPECT_NE(vdb_refusal(file, "sdf").find("grid 'sdf' is a level set"), std::string::npos);
+  EXPECT_NE(vdb_refusal(file, "negative").find("grid 'negative''s value at voxel (3, -2, 5) is negative (-2)"),
+            std::string::npos);
+  EXPECT_NE(vdb_refusal(file, "bad_background")
+                .find("grid 'bad_background''s background, which its inactive voxel (1, 0, 0) takes, is negative (-1)"),
+            std::string::npos);
+  EXPECT_NE(vdb_refusal(file, "rotated").find("grid 'rotated' has a transform that rotates, shears or mirrors"),
+            std::string::npos);
+  EXPECT_NE(vdb_refusal(file, "frustum").find("grid 'frustum' has a non-linear transform"), std::string::npos);
 }
 
 }  // namespace

@@ -9,6 +9,8 @@ packages=(
   pocl-opencl-icd clinfo oclgrind valgrind
   libopenexr-dev libglm-dev librandom123-dev libpugixml-dev libtinyobjloader-dev
   libcli11-dev nlohmann-json3-dev libstb-dev
+  # FindOpenVDB.cmake also asks for Boost.Iostreams, which libopenvdb-dev does not pull in.
+  libopenvdb-dev libboost-iostreams-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   openmpi-bin libopenmpi-dev
   clang-14 libclang-rt-14-dev

@@ -1,5 +1,6 @@
-// Volume grids (volume type="gridvolume"): Mitsuba's binary .vol files, and
-// the lookup the kernels do on them, as Mitsuba 3 does it.
+// Volume grids (volume type="gridvolume"): Mitsuba's binary .vol files and
+// OpenVDB float grids, read into one dense layout, and the lookup the
+// kernels do on them, as Mitsuba 3 does it.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +39,17 @@ VolumeGrid parse_vol(const std::string& name, const std::string& bytes);
 // Throws RuntimeError when it cannot write, or when `g` is inconsistent
 // (no voxels, data not nx * ny * nz * channels values).
 void write_vol(const std::string& path, const VolumeGrid& g);
+
+// The float grid `grid_name` of an OpenVDB file, densely over its active
+// voxels' bounding box; voxels there that are not active hold the grid's
+// background. Channels 1; bbox_min/bbox_max the world-space box of those
+// voxels (index box min - 0.5 .. max + 0.5 through the grid's transform,
+// which must be a scale and translation). Throws InputError(path, ...) for a
+// file that is not OpenVDB, no grid of that name (listing those there), a
+// grid that is not a float grid or has no active voxels, a transform that
+// rotates, shears, mirrors or is not linear, too many voxels, or a NaN,
+// infinite or negative value.
+VolumeGrid read_vdb(const std::string& path, const std::string& grid_name);
 
 // Host reference of the lookup the kernels will do: p in the grid's local
 // unit cube [0,1]^3, as Mitsuba 3.9's gridvolume with wrap_mode "clamp" (its
