@@ -27,6 +27,7 @@
 #include "render/render.h"
 #include "scene/integrator_options.h"
 #include "scene/loader.h"
+#include "scene/volume_grid.h"
 #include "util/errors.h"
 
 namespace {
@@ -372,6 +373,14 @@ int main(int argc, char** argv) {
   compare->add_option("image", compare_image, "OpenEXR image")->required()->check(CLI::ExistingFile);
   compare->add_option("reference", compare_reference, "OpenEXR reference")->required()->check(CLI::ExistingFile);
 
+  std::string vdb_input, vol_output, vdb_grid = "density";
+  auto* vdb2vol = app.add_subcommand(
+      "vdb2vol", "Convert a float grid of an OpenVDB file to Mitsuba's .vol, densely over its active voxels, with "
+      "their world-space box as the file's bounding box (use_grid_bbox places it there)");
+  vdb2vol->add_option("input", vdb_input, "OpenVDB file")->required();
+  vdb2vol->add_option("output", vol_output, ".vol file to write")->required();
+  vdb2vol->add_option("--grid", vdb_grid, "Name of the float grid; default 'density'");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -392,6 +401,14 @@ int main(int argc, char** argv) {
       std::printf("RMSE    %.6g\nrelMSE  %.6g  (eps 0.01)\n", d.rmse, d.relmse);
       std::printf("mean    image %.6g %.6g %.6g\n        ref   %.6g %.6g %.6g\n", d.mean[0], d.mean[1], d.mean[2],
                   d.reference_mean[0], d.reference_mean[1], d.reference_mean[2]);
+      return 0;
+    }
+    if (*vdb2vol) {
+      const spm::VolumeGrid g = spm::read_vdb(vdb_input, vdb_grid);
+      spm::write_vol(vol_output, g);
+      std::fprintf(stderr, "spm: wrote %s: %u x %u x %u voxels in (%g, %g, %g) .. (%g, %g, %g), max %g\n",
+                   vol_output.c_str(), g.nx, g.ny, g.nz, g.bbox_min.x, g.bbox_min.y, g.bbox_min.z, g.bbox_max.x,
+                   g.bbox_max.y, g.bbox_max.z, g.max_value());
       return 0;
     }
     if (*bench) {

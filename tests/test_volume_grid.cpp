@@ -1,5 +1,6 @@
 // Volume grids: the .vol round trip, every class of bad .vol file, the
-// lookup by hand and against Mitsuba 3's gridvolume, and OpenVDB float grids.
+// lookup by hand and against Mitsuba 3's gridvolume, OpenVDB float grids, and
+// spm vdb2vol.
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -20,6 +21,7 @@
 
 #include "cli_support.h"
 #include "scene/volume_grid.h"
+#include "test_support.h"
 #include "util/errors.h"
 
 namespace {
@@ -27,6 +29,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using Grid = spm::VolumeGrid;
+using spm::test::count_lines;
 
 // A .vol header: the fields in file order, each overridable by a test.
 struct Header {
@@ -437,6 +440,33 @@ TEST_F(VolumeGrid, BadVdbFiles) {
   EXPECT_NE(vdb_refusal(file, "rotated").find("grid 'rotated' has a transform that rotates, shears or mirrors"),
             std::string::npos);
   EXPECT_NE(vdb_refusal(file, "frustum").find("grid 'frustum' has a non-linear transform"), std::string::npos);
+}
+
+TEST_F(VolumeGrid, Vdb2VolThroughTheCli) {
+  write_vdb(path("smoke.vdb"), {density()});
+  const spm::test::Outcome ok = run("vdb2vol " + path("smoke.vdb") + " " + path("smoke.vol"));
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  const Grid vdb = spm::read_vdb(path("smoke.vdb"), "density");
+  const Grid vol = spm::read_vol(path("smoke.vol"));
+  EXPECT_EQ(vol.data, vdb.data);
+  EXPECT_EQ(vol.bbox_min, vdb.bbox_min);
+  EXPECT_EQ(vol.bbox_max, vdb.bbox_max);
+  EXPECT_EQ(vol.nx, vdb.nx);
+  EXPECT_EQ(vol.nz, vdb.nz);
+
+  const spm::test::Outcome named = run("vdb2vol " + path("smoke.vdb") + " " + path("named.vol") + " --grid density");
+  EXPECT_EQ(named.code, 0) << named.err;
+
+  const spm::test::Outcome missing = run("vdb2vol " + path("smoke.vdb") + " " + path("out.vol") + " --grid heat");
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_EQ(count_lines(missing.err), 1) << missing.err;
+  EXPECT_EQ(missing.err, "spm: " + path("smoke.vdb") + ": no grid named 'heat' (grids: 'density')\n");
+  EXPECT_FALSE(fs::exists(path("out.vol")));
+
+  const spm::test::Outcome absent = run("vdb2vol " + path("none.vdb") + " " + path("out.vol"));
+  EXPECT_EQ(absent.code, 2);
+  EXPECT_EQ(absent.err, "spm: " + path("none.vdb") + ": file does not exist\n");
+  EXPECT_FALSE(fs::exists(path("out.vol")));
 }
 
 }  // namespace
