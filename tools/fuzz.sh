@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
-# Fuzzes the scene parser with libFuzzer (clang-14, AddressSanitizer and
+# Fuzzes the input parsers with libFuzzer (clang-14, AddressSanitizer and
 # UndefinedBehaviorSanitizer):
 #
 #   tools/fuzz.sh [SECONDS] [TARGET]
 #
-# SECONDS (default 60) of fuzz_scene (the XML loader, default) or fuzz_obj
-# (the OBJ reader). Configures and builds build-fuzz/ (SPM_FUZZ_BUILD_DIR
-# overrides it), seeds a corpus from scenes/*.xml and tests/data (a copy: the
-# source tree is never written), and keeps what the fuzzer finds in
+# SECONDS (default 60) of fuzz_scene (the XML loader, default), fuzz_obj
+# (the OBJ reader) or fuzz_vol (the .vol reader). Configures and builds
+# build-fuzz/ (SPM_FUZZ_BUILD_DIR overrides it), seeds a corpus from the
+# target's files in scenes/ and tests/data (a copy: the source tree is never
+# written), and keeps what the fuzzer finds in
 # build-fuzz/corpus-TARGET/ for the next run. Exits non-zero on a finding (a
 # crash, a sanitizer report, a leak, a hang of more than 10 s per input, an
 # exception other than spm::InputError) and saves the input that caused it
 # under build-fuzz/findings/. The fuzzer's output is in build-fuzz/fuzz-TARGET.log.
 #
-# A long run: tools/fuzz.sh 3600 fuzz_scene && tools/fuzz.sh 3600 fuzz_obj
+# A long run: tools/fuzz.sh 3600 fuzz_scene && tools/fuzz.sh 3600 fuzz_obj && tools/fuzz.sh 3600 fuzz_vol
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -28,7 +29,8 @@ target="${2:-fuzz_scene}"
 case "$target" in
   fuzz_scene) pattern='*.xml' dict=tests/fuzz/scene.dict ;;
   fuzz_obj) pattern='*.obj' dict=tests/fuzz/obj.dict ;;
-  *) fail "unknown target '$target' (fuzz_scene or fuzz_obj)" ;;
+  fuzz_vol) pattern='*.vol' dict=tests/fuzz/vol.dict ;;
+  *) fail "unknown target '$target' (fuzz_scene, fuzz_obj or fuzz_vol)" ;;
 esac
 build="${SPM_FUZZ_BUILD_DIR:-build-fuzz}"
 
