@@ -46,9 +46,9 @@ void write_vol(const std::string& path, const VolumeGrid& g);
 // voxels (index box min - 0.5 .. max + 0.5 through the grid's transform,
 // which must be a scale and translation). Throws InputError(path, ...) for a
 // file that is not OpenVDB, no grid of that name (listing those there), a
-// grid that is not a float grid or has no active voxels, a transform that
-// rotates, shears, mirrors or is not linear, too many voxels, or a NaN,
-// infinite or negative value.
+// grid that is not a float grid, is a level set or has no active voxels, a
+// transform that rotates, shears, mirrors or is not linear, too many voxels,
+// or a NaN, infinite or negative value or background.
 VolumeGrid read_vdb(const std::string& path, const std::string& grid_name);
 
 // Host reference of the lookup the kernels will do: p in the grid's local
