@@ -16,9 +16,11 @@ __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uin
   if (i >= count) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   uint tests = 0;
+  SpmMediumTable homogeneous;
+  homogeneous.n = 0;
   const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
                                  origins[i].w, directions[i].w, radius, density_kernel, estimator, min_rec_depth,
-                                 max_rec_depth, &tests);
+                                 max_rec_depth, &homogeneous, &tests);
   out[i] = (float4)(l, (float)tests);
 }
 

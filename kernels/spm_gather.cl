@@ -39,24 +39,37 @@ typedef struct SpmMaps {
   uint estimator;
   uint direct;
   uint final_gather;
+  float march_step; /* Delta of heterogeneous media (medium.h) */
 } SpmMaps;
 
 /* Null boundaries a shadow ray may cross before it counts as blocked; scenes
  * nest media a few levels deep at most. */
 #define SPM_MAX_SHADOW_CROSSINGS 16
 
+/* Random-number lanes of a heterogeneous medium's ratio tracking
+ * (SPM_RNG_TRANSMITTANCE), 2^16 per medium segment: segment `i` of
+ * transmittance call `call` of a path vertex. */
+#define SPM_TR_CAMERA 0u
+#define SPM_TR_DIRECT 1u
+#define SPM_TR_NEE_CAMERA 2u
+#define SPM_TR_NEE_SHADOW 3u
+#define SPM_TR_FINAL_GATHER 4u
+inline uint tr_lane(uint call, uint i) { return ((call << 5) | i) << 16; }
+
 /* Transmittance from o towards a light at `dist` along d, through null
  * boundaries (switching the medium at each); 0 when an opaque surface blocks. */
-inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float dist, int medium) {
+inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float dist, int medium, float step,
+                                   SpmRng rng, uint call) {
   float3 tr = (float3)(1.0f);
   float remaining = dist;
   for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
     SpmHit h;
-    if (!scene_intersect(s, o, d, remaining, &h)) return tr * medium_transmittance(s, medium, remaining);
+    if (!scene_intersect(s, o, d, remaining, &h))
+      return tr * medium_transmittance(&s->md, medium, o, d, 0.0f, remaining, step, rng, tr_lane(call, i));
     const SpmSurface surf = scene_surface(s, o, d, h);
     const __global SpmShape* shape = &s->shapes[surf.shape];
     if (s->materials[shape->material].type != SPM_MAT_NULL) return (float3)(0.0f);
-    tr *= medium_transmittance(s, medium, h.t);
+    tr *= medium_transmittance(&s->md, medium, o, d, 0.0f, h.t, step, rng, tr_lane(call, i));
     medium = target_medium(shape, surf.ng, d, medium);
     o = leave_surface(&surf, d);
     remaining -= h.t;
@@ -67,7 +80,7 @@ inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float 
 /* Direct light reflected by a diffuse surface towards -d; `medium` is the
  * one the camera path arrived in. */
 inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __global SpmMaterial* m, float3 d,
-                             int medium, SpmRng rng) {
+                             int medium, float step, SpmRng rng) {
   const float3 n = facing_normal(surf, d);
   float3 wi, lp, ln;
   float dist;
@@ -78,7 +91,8 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   /* Stop short of an area light's own surface; point lights have none. */
   const float reach = dot(ln, ln) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
   const float3 tr =
-      shadow_transmittance(s, o, wi, reach, target_medium(&s->shapes[surf->shape], surf->ng, wi, medium));
+      shadow_transmittance(s, o, wi, reach, target_medium(&s->shapes[surf->shape], surf->ng, wi, medium), step, rng,
+                           SPM_TR_DIRECT);
   return load3(m->reflectance) * SPM_INV_PI * cos_x * li * tr;
 }
 
@@ -90,7 +104,8 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
  * combined by the balance heuristic, each with a shadow ray that carries
  * transmittance. The photon records of streams without an earlier event
  * are left out of the volume estimate instead (host/spm/map_grids.cpp). */
-inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1, SpmRng rng) {
+inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1, float step,
+                            SpmRng rng) {
   const __global SpmMedium* m = &s->media[medium];
   const float3 sigma_t = load3(m->sigma_t);
   const float3 sigma_s = sigma_t * load3(m->albedo);
@@ -126,8 +141,78 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
     if (max_comp(li) <= 0.0f) continue;
     /* Stop short of an area light's own surface; point lights have none. */
     const float reach = dot(yn, yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
-    const float3 tr = shadow_transmittance(s, x, wi, reach, medium);
+    const float3 tr = shadow_transmittance(s, x, wi, reach, medium, step, rng, SPM_TR_NEE_SHADOW);
     sum += exp(-sigma_t * (t - t0)) * sigma_s * phase_hg(dot(wi, d), g) * li * tr / (pdf_angular + pdf_flight);
+  }
+  return sum;
+}
+
+/* inscatter_nee in a heterogeneous medium (METHOD.md 12): the equi-angular
+ * distance alone, on the part of the segment inside the medium's grids
+ * (outside them nothing scatters), with sigma_s at the point and the
+ * transmittance to it and to the light by medium.h's marching or ratio
+ * tracking. A flight-distance strategy would need the inverse of the
+ * segment's optical depth; equi-angular sampling already has its pdf. */
+inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1,
+                                          float step, SpmRng rng) {
+  float a = t0, b = t1;
+  if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
+  const __global SpmMedium* m = &s->media[medium];
+  const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
+  float3 y, yn;
+  float prob;
+  const __global SpmLight* l = sample_light_point(s, rng4(rng, SPM_RNG_MEDIUM_NEE, 0), &y, &yn, &prob);
+  const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
+  const float delta = dot(y - o, d);
+  const float D = length(y - (o + delta * d));
+  if (!(D > 0.0f)) return (float3)(0.0f);
+  const float th0 = atan2(a - delta, D);
+  const float th1 = atan2(b - delta, D);
+  const float t = delta + D * tan(th0 + u.x * (th1 - th0));
+  if (!(t >= a && t <= b)) return (float3)(0.0f);
+  const float pdf = D / ((th1 - th0) * (D * D + (t - delta) * (t - delta)));
+  const float3 x = o + t * d;
+  const float3 sigma_s = medium_sigma_t(&s->md, medium, x) * medium_albedo(&s->md, medium, x);
+  if (max_comp(sigma_s) <= 0.0f) return (float3)(0.0f);
+  float3 wi;
+  float dist;
+  const float3 li = light_incident(l, x, y, yn, prob, &wi, &dist);
+  if (max_comp(li) <= 0.0f) return (float3)(0.0f);
+  const float reach = dot(yn, yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
+  const float3 tr = shadow_transmittance(s, x, wi, reach, medium, step, rng, SPM_TR_NEE_SHADOW) *
+                    medium_transmittance(&s->md, medium, o, d, t0, t, step, rng, tr_lane(SPM_TR_NEE_CAMERA, 0u));
+  return tr * sigma_s * phase_hg(dot(wi, d), g) * li / pdf;
+}
+
+/* The beam radiance estimate along [t0, t1] in a heterogeneous medium: in
+ * pieces of SPM_TABLE_KNOTS knots, each with the table of optical depth and
+ * albedo that all its records read (medium.h), attenuated by the depth of
+ * the pieces before it. Only the part inside the medium's grids can hold
+ * records; before it, the depth is that of a constant sigma_t, or 0 where
+ * sigma_t is a grid (0 outside its cube). */
+inline float3 heterogeneous_beam_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d,
+                                          float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
+  float a = t0, b = t1;
+  if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
+  const __global SpmMedium* m = &s->media[medium];
+  float voxel = SPM_INF;
+  if (m->sigma_t_grid >= 0) voxel = s->md.grids[m->sigma_t_grid].voxel;
+  if (m->albedo_grid >= 0) voxel = fmin(voxel, s->md.grids[m->albedo_grid].voxel);
+  const float h = maps->march_step > 0.0f ? maps->march_step : 0.5f * voxel;
+  float3 tau = m->sigma_t_grid >= 0 ? (float3)(0.0f) : load3(m->sigma_t) * (a - t0);
+  float3 sum = (float3)(0.0f);
+  SpmMediumTable tab;
+  for (float ta = a; ta < b;) {
+    const float tb = fmin(b, ta + (float)(SPM_TABLE_KNOTS - 1) * h);
+    const uint n = clamp((uint)ceil((tb - ta) / h) + 1u, 2u, (uint)SPM_TABLE_KNOTS);
+    medium_table_fill(&s->md, medium, o, d, ta, h, n, &tab);
+    sum += exp(-tau) * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, ta,
+                                     tb, maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth,
+                                     &tab, tests);
+    float3 albedo;
+    tau += medium_table_depth(&tab, tb, &albedo);
+    if (!(tb > ta)) break;
+    ta = tb;
   }
   return sum;
 }
@@ -141,8 +226,12 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
     return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media, medium, o,
                                 d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth, tests);
   }
+  if (maps->estimator == SPM_ESTIMATOR_BRE && medium_is_heterogeneous(&s->media[medium]))
+    return heterogeneous_beam_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
+  SpmMediumTable homogeneous;
+  homogeneous.n = 0u;
   return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, t0, t1,
-                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tests);
+                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, &homogeneous, tests);
 }
 
 /* Indirect light reflected towards the camera at a diffuse vertex, by one
@@ -172,7 +261,8 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
     const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
     if (medium >= 0) li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, hit ? h.t : SPM_INF, 0u, max_depth, tests);
     if (!hit) break;
-    tr *= medium_transmittance(s, medium, h.t);
+    tr *= medium_transmittance(&s->md, medium, o, wi, 0.0f, h.t, maps->march_step, rng,
+                               tr_lane(SPM_TR_FINAL_GATHER, (uint)i));
     const SpmSurface y = scene_surface(s, o, wi, h);
     const __global SpmShape* shape = &s->shapes[y.shape];
     const __global SpmMaterial* m = &s->materials[shape->material];
@@ -230,14 +320,16 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
                                   record_depth_limit(max_depth, specular), tests);
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
-        L += beta * inscatter_nee(s, medium, o, d, tmin, t_end, rng);
+        L += beta * (medium_is_heterogeneous(&s->media[medium])
+                         ? inscatter_nee_heterogeneous(s, medium, o, d, tmin, t_end, maps->march_step, rng)
+                         : inscatter_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng));
       }
     }
     /* Escaping: outside a medium there is no environment light in the
      * supported subset, inside one the light has all been gathered. */
     if (!hit) break;
     h.t = t_end;
-    beta *= medium_transmittance(s, medium, h.t - tmin);
+    beta *= medium_transmittance(&s->md, medium, o, d, tmin, h.t, maps->march_step, rng, tr_lane(SPM_TR_CAMERA, 0u));
     const SpmSurface surf = scene_surface(s, o, d, h);
     const __global SpmShape* shape = &s->shapes[surf.shape];
     const __global SpmMaterial* m = &s->materials[shape->material];
@@ -256,7 +348,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     if (m->type == SPM_MAT_DIFFUSE) {
       if (reflects_from(m, &surf, d)) {
         const bool nee = maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth);
-        if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, rng);
+        if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, maps->march_step, rng);
         const uint depth_limit = record_depth_limit(max_depth, specular);
         if (maps->final_gather) {
           /* The gather ray's records lie one vertex further from the camera. */
@@ -309,6 +401,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.caustic_grid = make_grid(caustic_info, caustic_start, caustic_pos);
   maps.caustic_flux = caustic_flux;
   maps.final_gather = params.final_gather;
+  maps.march_step = params.march_step;
   maps.radius = params.radius;
   maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;

@@ -13,7 +13,8 @@
   S(SpmBvhNode, 32)           \
   S(SpmShape, 32)             \
   S(SpmMaterial, 32)          \
-  S(SpmMedium, 32)            \
+  S(SpmMedium, 48)            \
+  S(SpmGridVolume, 96)        \
   S(SpmLight, 112)            \
   S(SpmLightPrim, 8)          \
   S(SpmCamera, 96)            \
@@ -34,6 +35,10 @@
   F(SpmShape, flags)                                                                            \
   F(SpmMaterial, reflectance) F(SpmMaterial, type) F(SpmMaterial, eta) F(SpmMaterial, twosided) \
   F(SpmMedium, sigma_t) F(SpmMedium, g) F(SpmMedium, albedo) F(SpmMedium, phase)                \
+  F(SpmMedium, sigma_t_grid) F(SpmMedium, albedo_grid)                                          \
+  F(SpmGridVolume, to_local) F(SpmGridVolume, dims) F(SpmGridVolume, channels)                  \
+  F(SpmGridVolume, majorant_dims) F(SpmGridVolume, filter) F(SpmGridVolume, offset)             \
+  F(SpmGridVolume, majorant_offset) F(SpmGridVolume, voxel)                                     \
   F(SpmLight, emission) F(SpmLight, type) F(SpmLight, position) F(SpmLight, power)              \
   F(SpmLight, axis_x) F(SpmLight, cos_cutoff) F(SpmLight, axis_y) F(SpmLight, cos_beam)         \
   F(SpmLight, axis_z) F(SpmLight, cutoff) F(SpmLight, prim_begin) F(SpmLight, prim_count)       \
@@ -58,7 +63,7 @@
   F(SpmGatherParams, seed) F(SpmGatherParams, pass) F(SpmGatherParams, spp)                     \
   F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
-  F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather)                              \
+  F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

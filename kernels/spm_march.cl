@@ -8,7 +8,9 @@
  * the exponential truncated to the step; march_step = 0 samples the free
  * flight directly. For a homogeneous medium both give Exp(sigma_t) exactly.
  * RGB sigma_t is sampled with the channel mean; phi is multiplied by the
- * ratio of the true to the sampled density per channel.
+ * ratio of the true to the sampled density per channel. A heterogeneous
+ * medium's flights are medium.h's: marching with sigma_t at each step's
+ * midpoint, or delta tracking for march_step = 0 (METHOD.md 12).
  *
  * When the gather reads stream beams (beam_capacity > 0), the flight to the
  * event inside a medium is also appended as a beam (METHOD.md 11) with the
@@ -20,12 +22,9 @@
  * fewer of them than of the streams the surfaces need make a smooth
  * estimate, and the gather's cost grows with their number. */
 #include "spm_types.h"
+#include "lib/medium.h"
 #include "lib/scene.h"
 #include "lib/stream.h"
-
-/* Steps walked before the march gives up on an unbounded ray (an infinite
- * medium with a tiny P per step): the stream then escapes. */
-#define SPM_MAX_MARCH_STEPS (1u << 22)
 
 inline float free_flight(float sigma, float tmax, float step, SpmRng rng) {
   if (step <= 0.0f) return -log(1.0f - rng4(rng, SPM_RNG_DISTANCE, 0).x) / sigma;
@@ -73,18 +72,25 @@ __kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global
   float t = h.t;
   const int m = st_medium[s];
   if (m >= 0) {
-    const float3 sigma = load3(sc.media[m].sigma_t);
-    const float mean = mean_comp(sigma);
+    const SpmRng rng = rng_make(params.seed, params.pass, st_id[s], st_events[s]);
     float3 weight = (float3)(1.0f);
-    const float te = mean > 0.0f ? free_flight(mean, h.t, params.march_step,
-                                                   rng_make(params.seed, params.pass, st_id[s], st_events[s]))
-                                 : SPM_INF;
-    if (te < h.t) {
-      event = SPM_EV_MEDIUM;
-      t = te;
-      weight = sigma / mean * exp(-(sigma - mean) * te);
-    } else if (surface) {
-      weight = exp(-(sigma - mean) * h.t);
+    if (sc.media[m].sigma_t_grid >= 0) {
+      const float te = heterogeneous_flight(&sc.md, m, o, d, h.t, params.march_step, rng, &weight);
+      if (te < h.t) {
+        event = SPM_EV_MEDIUM;
+        t = te;
+      }
+    } else {
+      const float3 sigma = load3(sc.media[m].sigma_t);
+      const float mean = mean_comp(sigma);
+      const float te = mean > 0.0f ? free_flight(mean, h.t, params.march_step, rng) : SPM_INF;
+      if (te < h.t) {
+        event = SPM_EV_MEDIUM;
+        t = te;
+        weight = sigma / mean * exp(-(sigma - mean) * te);
+      } else if (surface) {
+        weight = exp(-(sigma - mean) * h.t);
+      }
     }
     if (params.beam_capacity > 0 && st_id[s] < params.beam_streams && max_comp(load3(sc.media[m].albedo)) > 0.0f) {
       const float share = (float)params.pass_streams / (float)params.beam_streams;

@@ -102,13 +102,43 @@ typedef struct SpmMaterial {
 #define SPM_PHASE_ISOTROPIC 0u
 #define SPM_PHASE_HG 1u
 
-/* Homogeneous medium, coefficients in inverse scene units (scale applied). */
+/* A medium, coefficients in inverse scene units (scale applied). A
+ * homogeneous one has sigma_t and albedo; in a heterogeneous one (METHOD.md
+ * 12, Mitsuba 3's `heterogeneous`) each is that factor times a grid's value
+ * at the point, where the medium names one (-1: the factor alone). */
 typedef struct SpmMedium {
   spm_float sigma_t[3];
   spm_float g;
   spm_float albedo[3];
   spm_uint phase;
+  spm_int sigma_t_grid; /* index into the SpmGridVolume table, -1: constant */
+  spm_int albedo_grid;
+  spm_uint pad[2];
 } SpmMedium;
+
+#define SPM_GRID_TRILINEAR 0u
+#define SPM_GRID_NEAREST 1u
+
+/* Majorant cells per grid axis are this many voxels wide (METHOD.md 12). */
+#define SPM_MAJORANT_VOXELS 8u
+
+/* A grid of 1 or 3 channels over the unit cube of its to_world (Mitsuba 3's
+ * gridvolume): values in the scene's grid data buffer from `offset`, index
+ * ((z ny + y) nx + x) channels + c, texel centres at (i + 0.5) / n, and 0
+ * outside the cube. Beside it, from majorant_offset, the coarse grid of
+ * maxima (the largest value of any channel a lookup in each cell can give)
+ * that delta and ratio tracking step through. */
+typedef struct SpmGridVolume {
+  spm_float to_local[12]; /* rows of the affine map world -> unit cube: local_i = row_i . (x, 1) */
+  spm_uint dims[3];
+  spm_uint channels;
+  spm_uint majorant_dims[3];
+  spm_uint filter;        /* SPM_GRID_TRILINEAR or SPM_GRID_NEAREST */
+  spm_uint offset;
+  spm_uint majorant_offset;
+  spm_float voxel;        /* world length of the shortest voxel edge */
+  spm_uint pad;
+} SpmGridVolume;
 
 #define SPM_LIGHT_AREA 0u
 #define SPM_LIGHT_POINT 1u
@@ -244,7 +274,7 @@ typedef struct SpmGatherParams {
   spm_uint direct_terms;   /* 0: the photon estimates alone (a later part of the maps) */
   spm_float beam_radius;   /* the stream beams' 1D kernel radius in the pass */
   spm_uint final_gather;   /* 1: one gather ray at the camera's diffuse vertex (with SPM_DIRECT_NEE) */
-  spm_uint pad;
+  spm_float march_step;    /* Delta of heterogeneous media's transmittance; 0: ratio tracking (METHOD.md 12) */
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

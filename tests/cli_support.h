@@ -32,6 +32,29 @@ inline const char* kFogGlassScene = R"(<scene version="3.0.0">
 </scene>
 )";
 
+// kFogGlassScene with its fog made heterogeneous: sigma_t from smoke.vol
+// (beside the scene file; write_smoke_grid) over the null cube [-1.5, 1.5]^3
+// around the light, the sphere and the floor, which hold the medium.
+inline const char* kSmokeGlassScene = R"(<scene version="3.0.0">
+  <sensor type="perspective">
+    <float name="fov" value="45"/>
+    <transform name="to_world"><lookat origin="0, 1, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/></film>
+  </sensor>
+  <medium type="heterogeneous" id="smoke">
+    <volume name="sigma_t" type="gridvolume"><string name="filename" value="smoke.vol"/>
+      <transform name="to_world"><scale value="3"/><translate value="-1.5, -1.5, -1.5"/></transform></volume>
+    <float name="scale" value="0.6"/><rgb name="albedo" value="0.9, 0.8, 0.7"/>
+  </medium>
+  <shape type="cube"><transform name="to_world"><scale value="1.5"/></transform><bsdf type="null"/>
+    <ref name="interior" id="smoke"/></shape>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>
+  <shape type="sphere"><point name="center" x="0.5" y="0.5" z="0"/><float name="radius" value="0.4"/>
+    <bsdf type="dielectric"/></shape>
+  <emitter type="point"><point name="position" x="0" y="1" z="0"/><rgb name="intensity" value="5"/></emitter>
+</scene>
+)";
+
 // A plane under a point light, width x height pixels: the smallest scene that
 // renders. `body` goes after the plane; `light` false leaves the light out.
 inline std::string plane_scene(const std::string& body = "", bool light = true, int width = 8, int height = 8) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "cl_compat.h"
 #include "spm_streams.h"
@@ -15,7 +16,7 @@ using namespace clc;
 
 namespace {
 
-constexpr uint32_t kMaxMarchSteps = 1u << 22;  // SPM_MAX_MARCH_STEPS (spm_march.cl)
+constexpr uint32_t kMaxMarchSteps = 1u << 22;  // SPM_MAX_MARCH_STEPS (kernels/lib/medium.h)
 
 // March outcomes (SPM_EV_*).
 enum class Event { Medium, Surface, Escape };
@@ -27,8 +28,8 @@ constexpr uint32_t kDeposit = 1, kAbsorb = 2, kSphere = 4, kDisk = 8, kEnd = 16;
 // The scene as the kernels' SPM_SCENE sees it (kernels/lib/scene.h).
 SpmScene scene_of(const SceneTables& t) {
   return make_scene(t.nodes.data(), t.prims.data(), t.normals.data(), t.shapes.data(), t.materials.data(),
-                    t.media.data(), t.lights.data(), t.light_prims.data(), t.light_cdf.data(),
-                    static_cast<uint>(t.prims.size()), static_cast<uint>(t.lights.size()));
+                    t.media.data(), t.lights.data(), t.light_prims.data(), t.light_cdf.data(), t.grids.data(),
+                    t.grid_data.data(), static_cast<uint>(t.prims.size()), static_cast<uint>(t.lights.size()));
 }
 
 // Uniform k (0..3) of a draw, as spm_absorb picks photon j's.
@@ -331,6 +332,12 @@ float goes_on(uint32_t k, float3 flux, float flux0, const StreamSettings& set, S
 }
 
 StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, uint32_t id, int ulps) {
+  // Heterogeneous media are tested against closed forms instead
+  // (test_heterogeneous.cpp).
+  for (const SpmMedium& m : tables.media) {
+    if (m.sigma_t_grid >= 0 || m.albedo_grid >= 0)
+      throw std::invalid_argument("the stream reference models homogeneous media only");
+  }
   t_rounding = {ulps, id};
   const SpmScene sc = scene_of(tables);
   StreamResult out;

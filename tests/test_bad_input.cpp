@@ -124,7 +124,7 @@ TEST_F(BadInput, UnknownPlugin) {
       {"<shape type=\"torus\"/>", "unsupported shape type 'torus'"},
       {"<bsdf type=\"plastic\"/>", "unsupported bsdf type 'plastic'"},
       {"<emitter type=\"envmap\"/>", "unsupported emitter type 'envmap'"},
-      {"<medium type=\"heterogeneous\"/>", "unsupported medium type 'heterogeneous'"},
+      {"<medium type=\"nanovdb\"/>", "unsupported medium type 'nanovdb'"},
       {"<texture type=\"bitmap\"/>", "unknown or unsupported tag <texture>"},
   };
   for (const auto& [element, keyword] : cases) {

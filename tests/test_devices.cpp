@@ -6,17 +6,31 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <utility>
 
 #include "cli_support.h"
 #include "film/image_io.h"
+#include "scene/volume_grid.h"
 
 namespace {
 
 using Devices = spm::test::CliTest;
 
 using spm::test::kFogGlassScene;
+using spm::test::kSmokeGlassScene;
+
+// kSmokeGlassScene's grid: 9 x 7 x 5 texels of density in [0, 3), not a
+// multiple of the majorant cells' 8 texels on any axis.
+void write_smoke_grid(const std::string& path) {
+  spm::VolumeGrid g;
+  g.nx = 9;
+  g.ny = 7;
+  g.nz = 5;
+  for (uint32_t i = 0; i < g.nx * g.ny * g.nz; ++i) g.data.push_back(float((i * 7919u) % 300u) / 100.0f);
+  spm::write_vol(path, g);
+}
 
 bool same_pixels(const spm::Image& a, const spm::Image& b) {
   return a.width == b.width && a.height == b.height &&
@@ -97,21 +111,30 @@ TEST_F(Devices, OclgrindFindsNoDataRaceAndMatchesPocl) {
   // uninitialised data instead.
   // Both volume estimates: the stream beams add march's beam appends and
   // their own gather loop.
-  const std::string scene = write("s.xml", kFogGlassScene);
-  for (const std::string estimator : {"bre", "beams"}) {
-    const std::string args = " --spp 2 --streams 200 --associated 4 --estimator " + estimator;
+  // A heterogeneous medium adds its lookups, delta and ratio tracking
+  // (--march-step 0) and ray marching.
+  write("s.xml", kFogGlassScene);
+  write("smoke.xml", kSmokeGlassScene);
+  write_smoke_grid(path("smoke.vol"));
+  for (const std::string run_case : {"s.xml bre", "s.xml beams", "smoke.xml bre 0", "smoke.xml bre 0.1"}) {
+    std::istringstream words(run_case);
+    std::string file, estimator, step = "0";
+    words >> file >> estimator >> step;
+    const std::string scene = path(file);
+    const std::string args =
+        " --spp 2 --streams 200 --associated 4 --estimator " + estimator + " --march-step " + step;
     const auto sim = run("render " + scene + " -o " + path("sim.exr") + args, "oclgrind --data-races");
     ASSERT_EQ(sim.code, 0) << sim.err;
     EXPECT_NE(sim.err.find("Oclgrind"), std::string::npos) << "not run on oclgrind: " << sim.err;
     for (const char* word : {"race", "Invalid", "Uninitialized", "error"}) {
-      EXPECT_EQ(sim.err.find(word), std::string::npos) << estimator << ": " << sim.err;
+      EXPECT_EQ(sim.err.find(word), std::string::npos) << run_case << ": " << sim.err;
     }
     ASSERT_EQ(run("render " + scene + " -o " + path("pocl.exr") + args).code, 0);
     const spm::Image a = spm::read_exr(path("sim.exr")), b = spm::read_exr(path("pocl.exr"));
     ASSERT_EQ(a.rgb.size(), b.rgb.size());
     double peak = 0.0;
     for (size_t i = 0; i < a.rgb.size(); ++i) {
-      EXPECT_NEAR(a.rgb[i], b.rgb[i], 1e-4 * std::abs(b.rgb[i]) + 1e-6) << estimator << ": value " << i;
+      EXPECT_NEAR(a.rgb[i], b.rgb[i], 1e-4 * std::abs(b.rgb[i]) + 1e-6) << run_case << ": value " << i;
       peak = std::max(peak, double(b.rgb[i]));
     }
     EXPECT_GT(peak, 0.0);
@@ -125,12 +148,15 @@ TEST_F(Devices, UnwrittenDeviceMemoryIsNeverRead) {
   // small memory cap adds stream batches, mid-batch flushes and gather tiles.
   // This works on any device (SPM_TEST_DEVICE); dropping the host's reset of
   // the stream counters makes the 0xff render fail.
-  const std::string scene = write("s.xml", kFogGlassScene);
+  write("s.xml", kFogGlassScene);
+  write("smoke.xml", kSmokeGlassScene);
+  write_smoke_grid(path("smoke.vol"));
   const std::string args = " --spp 2 --passes 2 --streams 400 --associated 8 --res 16x12 --device-memory 150000";
-  for (const std::string estimator : {"bre", "beams"}) {
+  for (const std::string estimator : {"bre", "beams", "smoke"}) {
+    const std::string scene = path(estimator == "smoke" ? "smoke.xml" : "s.xml");
     for (const char* fill : {"0", "0xff", "0x5a"}) {
       const auto r = run("render " + scene + " -o " + path(estimator + "fill" + fill + ".exr") + args +
-                             " --estimator " + estimator,
+                             " --estimator " + (estimator == "smoke" ? "bre" : estimator),
                          std::string("SPM_FILL_BUFFERS=") + fill);
       ASSERT_EQ(r.code, 0) << fill << ": " << r.err;
     }
@@ -138,7 +164,7 @@ TEST_F(Devices, UnwrittenDeviceMemoryIsNeverRead) {
     EXPECT_TRUE(same_pixels(zero, spm::read_exr(path(estimator + "fill0xff.exr")))) << estimator;
     EXPECT_TRUE(same_pixels(zero, spm::read_exr(path(estimator + "fill0x5a.exr")))) << estimator;
   }
-  EXPECT_EQ(run("render " + scene + " -o " + path("bad.exr") + args, "SPM_FILL_BUFFERS=256").code, 2);
+  EXPECT_EQ(run("render " + path("s.xml") + " -o " + path("bad.exr") + args, "SPM_FILL_BUFFERS=256").code, 2);
 }
 
 TEST_F(Devices, MemcheckFindsNoUninitialisedValueInARender) {

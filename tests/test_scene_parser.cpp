@@ -223,7 +223,7 @@ TEST(SceneParser, RefusesUnknownPluginType) {
   expect_error("<bsdf type=\"plastic\"/> <!--here-->", "unsupported bsdf type 'plastic'");
   expect_error("<shape type=\"disk\"/> <!--here-->", "unsupported shape type 'disk'");
   expect_error("<emitter type=\"envmap\"/> <!--here-->", "unsupported emitter type 'envmap'");
-  expect_error("<medium type=\"heterogeneous\"/> <!--here-->", "unsupported medium type");
+  expect_error("<medium type=\"nanovdb\"/> <!--here-->", "unsupported medium type");
   expect_error("<sensor type=\"thinlens\"/> <!--here-->", "unsupported sensor type");
 }
 

@@ -172,6 +172,7 @@ TEST(StreamBeamEstimate, OneBeamsIntegralOverOffsetsIsTheClosedForm) {
     m.albedo[c] = 0.6f;
   }
   m.phase = SPM_PHASE_ISOTROPIC;
+  m.sigma_t_grid = m.albedo_grid = -1;  // homogeneous
   SpmBeam b{};
   b.origin[0] = -50.0f;
   b.direction[0] = 1.0f;

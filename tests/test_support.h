@@ -51,6 +51,7 @@ inline SpmMedium coloured_medium() {
   m.albedo[2] = 0.3f;
   m.phase = SPM_PHASE_HG;
   m.g = 0.4f;
+  m.sigma_t_grid = m.albedo_grid = -1;  // homogeneous
   return m;
 }
 

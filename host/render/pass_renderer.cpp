@@ -92,6 +92,10 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
       direct_(kDirectOption.code(scene.integrator.direct)),
       final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE) {
+  for (const Medium& m : scene.media) {
+    if (estimator_ == SPM_ESTIMATOR_BEAMS && m.heterogeneous())
+      throw InputError(m.where, "the stream beams (estimator beams) do not read heterogeneous media yet; use bre");
+  }
   const size_t used = propagator_.bytes() + gather_.bytes();
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;
   host_budget_ = host_map_budget();
@@ -175,6 +179,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.estimator = estimator_;
     params.direct = direct_;
     params.final_gather = final_gather_ ? 1u : 0u;
+    params.march_step = scene_.integrator.march_step;
     params.direct_terms = direct_terms && k == 0;
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();

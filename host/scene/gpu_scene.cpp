@@ -1,5 +1,6 @@
 #include "scene/gpu_scene.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -30,6 +31,63 @@ double triangle_area(const SpmPrim& p) {
 double prim_area(const SpmPrim& p) {
   return p.kind == SPM_PRIM_SPHERE ? 4.0 * kPi * double(p.p1[0]) * double(p.p1[0]) : triangle_area(p);
 }
+
+// Largest value any lookup inside majorant cell [lo, hi) of an axis of n
+// texels can read: texels floor(lo n - 0.5) .. floor(hi n - 0.5) + 1 (the
+// trilinear neighbours; nearest reads a subset), one more each side so that
+// rounding of a point on a cell's boundary cannot leave them.
+std::pair<uint32_t, uint32_t> majorant_texels(uint32_t cell, uint32_t cells, uint32_t n) {
+  const double lo = double(cell) / cells * n - 0.5, hi = double(cell + 1) / cells * n - 0.5;
+  const int64_t a = std::max<int64_t>(0, int64_t(std::floor(lo)) - 1);
+  const int64_t b = std::min<int64_t>(n - 1, int64_t(std::floor(hi)) + 2);
+  return {uint32_t(a), uint32_t(b)};
+}
+
+}  // namespace
+
+void append_grid(SceneTables& t, const GridVolume& v) {
+  const VolumeGrid& g = v.grid;
+  SpmGridVolume out{};
+  const glm::mat4 to_local = glm::inverse(v.to_world);
+  for (int row = 0; row < 3; ++row)
+    for (int col = 0; col < 4; ++col) out.to_local[4 * row + col] = to_local[col][row];
+  out.dims[0] = g.nx;
+  out.dims[1] = g.ny;
+  out.dims[2] = g.nz;
+  out.channels = g.channels;
+  out.filter = v.nearest ? SPM_GRID_NEAREST : SPM_GRID_TRILINEAR;
+  const uint32_t n[3] = {g.nx, g.ny, g.nz};
+  out.voxel = INFINITY;
+  for (int a = 0; a < 3; ++a) {
+    out.majorant_dims[a] = (n[a] + SPM_MAJORANT_VOXELS - 1) / SPM_MAJORANT_VOXELS;
+    out.voxel = std::min(out.voxel, glm::length(glm::vec3(v.to_world[a])) / float(n[a]));
+  }
+  if (t.grid_data.size() + g.data.size() + size_t(out.majorant_dims[0]) * out.majorant_dims[1] * out.majorant_dims[2] >
+      size_t(UINT32_MAX))
+    throw InputError(v.where, "the scene's volume grids hold more than 2^32 values");
+  out.offset = static_cast<spm_uint>(t.grid_data.size());
+  t.grid_data.insert(t.grid_data.end(), g.data.begin(), g.data.end());
+  out.majorant_offset = static_cast<spm_uint>(t.grid_data.size());
+  for (uint32_t cz = 0; cz < out.majorant_dims[2]; ++cz) {
+    const auto [z0, z1] = majorant_texels(cz, out.majorant_dims[2], g.nz);
+    for (uint32_t cy = 0; cy < out.majorant_dims[1]; ++cy) {
+      const auto [y0, y1] = majorant_texels(cy, out.majorant_dims[1], g.ny);
+      for (uint32_t cx = 0; cx < out.majorant_dims[0]; ++cx) {
+        const auto [x0, x1] = majorant_texels(cx, out.majorant_dims[0], g.nx);
+        float top = 0.0f;
+        for (uint32_t z = z0; z <= z1; ++z)
+          for (uint32_t y = y0; y <= y1; ++y)
+            for (uint32_t x = x0; x <= x1; ++x)
+              for (uint32_t c = 0; c < g.channels; ++c)
+                top = std::max(top, g.data[((size_t(z) * g.ny + y) * g.nx + x) * g.channels + c]);
+        t.grid_data.push_back(top);
+      }
+    }
+  }
+  t.grids.push_back(out);
+}
+
+namespace {
 
 SpmCamera make_camera(const Camera& c, int width, int height) {
   SpmCamera out{};
@@ -90,8 +148,11 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
     put3(g.albedo, m.albedo);
     g.g = m.hg ? m.g : 0.0f;
     g.phase = m.hg ? SPM_PHASE_HG : SPM_PHASE_ISOTROPIC;
+    g.sigma_t_grid = m.sigma_t_grid;
+    g.albedo_grid = m.albedo_grid;
     t.media.push_back(g);
   }
+  for (const GridVolume& v : scene.volumes) append_grid(t, v);
   for (size_t i = 0; i < scene.shapes.size(); ++i) {
     const Shape& s = scene.shapes[i];
     SpmShape g{};
@@ -199,13 +260,16 @@ GpuScene::GpuScene(Device& device, const SceneTables& t)
       lights_(device.upload("lights", t.lights)),
       light_prims_(device.upload("light_prims", t.light_prims)),
       light_cdf_(device.upload("light_cdf", t.light_cdf)),
+      grids_(device.upload("volume grids", t.grids)),
+      grid_data_(device.upload("volume grid values", t.grid_data)),
       camera_(device.upload("camera", std::vector<SpmCamera>{t.camera})),
       num_prims_(static_cast<cl_uint>(t.prims.size())),
       num_lights_(static_cast<cl_uint>(t.lights.size())) {
   // Device::upload gives an empty table one element.
   const auto size = [](const auto& v) { return sizeof(v[0]) * std::max<size_t>(1, v.size()); };
   bytes_ = size(t.nodes) + size(t.prims) + size(t.normals) + size(t.shapes) + size(t.materials) + size(t.media) +
-           size(t.lights) + size(t.light_prims) + size(t.light_cdf) + sizeof(SpmCamera);
+           size(t.lights) + size(t.light_prims) + size(t.light_cdf) + size(t.grids) + size(t.grid_data) +
+           sizeof(SpmCamera);
 }
 
 cl_uint GpuScene::bind(cl::Kernel& k, cl_uint i) const {
@@ -213,7 +277,8 @@ cl_uint GpuScene::bind(cl::Kernel& k, cl_uint i) const {
   const std::pair<const char*, const cl::Buffer*> tables[] = {
       {"scene_nodes", &nodes_},         {"scene_prims", &prims_},   {"scene_normals", &normals_},
       {"scene_shapes", &shapes_},       {"scene_materials", &materials_}, {"scene_media", &media_},
-      {"scene_lights", &lights_},       {"scene_light_prims", &light_prims_}, {"scene_light_cdf", &light_cdf_}};
+      {"scene_lights", &lights_},       {"scene_light_prims", &light_prims_}, {"scene_light_cdf", &light_cdf_},
+      {"scene_grids", &grids_},         {"scene_grid_data", &grid_data_}};
   for (const auto& [name, buffer] : tables) bind_arg(k, i++, name, *buffer);
   bind_arg(k, i++, "scene_num_prims", num_prims_);
   bind_arg(k, i++, "scene_num_lights", num_lights_);

@@ -21,6 +21,8 @@ struct SceneTables {
   std::vector<SpmLight> lights;
   std::vector<SpmLightPrim> light_prims;
   std::vector<float> light_cdf;  // inclusive, by power
+  std::vector<SpmGridVolume> grids;
+  std::vector<float> grid_data;  // every grid's values, then its majorants (SpmGridVolume)
   SpmCamera camera{};
   double bvh_seconds = 0.0;
 };
@@ -28,6 +30,10 @@ struct SceneTables {
 // Flattens `scene` for film size width x height. Throws InputError when the
 // scene cannot be rendered (no light with positive power, ...).
 SceneTables flatten_scene(const Scene& scene, int width, int height);
+
+// Appends a gridvolume's values and its majorant grid (METHOD.md 12) to the
+// grid data, and its SpmGridVolume (flatten_scene does it for every volume).
+void append_grid(SceneTables& t, const GridVolume& v);
 
 class GpuScene {
  public:
@@ -42,7 +48,8 @@ class GpuScene {
 
  private:
   size_t bytes_ = 0;
-  DeviceBuffer nodes_, prims_, normals_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, camera_;
+  DeviceBuffer nodes_, prims_, normals_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, grids_, grid_data_,
+      camera_;
   cl_uint num_prims_ = 0, num_lights_ = 0;
 };
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <iostream>
+#include <set>
 #include <utility>
 
 #include "scene/integrator_options.h"
@@ -616,7 +617,9 @@ class Loader {
 
   int add_medium(const pugi::xml_node& node) {
     std::string type = object_type(node);
-    if (type != "homogeneous") ctx_.fail(node, "unsupported medium type '" + type + "' (homogeneous)");
+    if (type != "homogeneous" && type != "heterogeneous")
+      ctx_.fail(node, "unsupported medium type '" + type + "' (homogeneous, heterogeneous)");
+    const bool heterogeneous = type == "heterogeneous";
     Props p(ctx_, node, "medium '" + type + "'");
     Medium m;
     m.where = ctx_.where(node);
@@ -628,23 +631,98 @@ class Loader {
       if (!in_unit_range(*a)) p.fail("albedo", "albedo must be in [0, 1]");
       m.albedo = *a;
     }
+    float scale = 1.0f;
     if (std::optional<float> s = p.get_float("scale")) {
       if (!(*s >= 0.0f)) p.fail("scale", "scale of a medium must not be negative");
-      m.sigma_t *= *s;
+      scale = *s;
     }
     p.finish();
     bool have_phase = false;
+    std::set<std::string> volumes;  // the coefficients given as a <volume>
     for (const pugi::xml_node& child : p.objects()) {
-      if (std::string(child.name()) != "phase")
-        ctx_.fail(child, "<" + std::string(child.name()) + "> is not allowed in " + p.what() + " (only <phase>)");
+      const std::string tag = child.name();
+      if (heterogeneous && tag == "volume") {
+        read_medium_volume(child, p, m, volumes);
+        continue;
+      }
+      if (tag != "phase")
+        ctx_.fail(child, "<" + tag + "> is not allowed in " + p.what() +
+                             (heterogeneous ? " (only <phase> and <volume>)" : " (only <phase>)"));
       if (have_phase) ctx_.fail(child, "a second <phase> in the medium");
       have_phase = true;
       read_phase(child, m);
+    }
+    m.sigma_t *= scale;
+    if (m.albedo_grid >= 0) {
+      const float top = scene_.volumes[m.albedo_grid].grid.max_value() * std::max({m.albedo.x, m.albedo.y, m.albedo.z});
+      if (top > 1.0f)
+        ctx_.fail(node, "the albedo volume reaches " + std::to_string(top) + " (albedo must be in [0, 1])");
     }
     int index = static_cast<int>(scene_.media.size());
     scene_.media.push_back(m);
     register_id(node, index);
     return index;
+  }
+
+  // <volume name="sigma_t|albedo" type="gridvolume|constvolume"> of a
+  // heterogeneous medium (SCENES.md), as Mitsuba 3 reads it: a constvolume
+  // sets the coefficient, a gridvolume makes it the grid's value (times the
+  // medium's scale for sigma_t).
+  void read_medium_volume(const pugi::xml_node& node, const Props& medium, Medium& m, std::set<std::string>& given) {
+    const std::string type = object_type(node);
+    const std::string name = ctx_.attr(node, "name");
+    if (name != "sigma_t" && name != "albedo")
+      ctx_.fail(node, "<volume name=\"" + name + "\"> in " + medium.what() + " (sigma_t or albedo)");
+    if (medium.has(name.c_str()) || !given.insert(name).second)
+      ctx_.fail(node, name + " of " + medium.what() + " is given twice");
+    Props p(ctx_, node, "volume '" + type + "'");
+    if (type == "constvolume") {
+      std::optional<glm::vec3> v = p.get_color("value");
+      const glm::vec3 value = v.value_or(glm::vec3(1.0f));
+      if (name == "sigma_t" && !non_negative(value)) p.fail("value", "sigma_t must not be negative");
+      if (name == "albedo" && !in_unit_range(value)) p.fail("value", "albedo must be in [0, 1]");
+      (name == "sigma_t" ? m.sigma_t : m.albedo) = value;
+    } else if (type == "gridvolume") {
+      (name == "sigma_t" ? m.sigma_t_grid : m.albedo_grid) = read_gridvolume(node, p);
+      (name == "sigma_t" ? m.sigma_t : m.albedo) = glm::vec3(1.0f);
+    } else {
+      ctx_.fail(node, "unsupported volume type '" + type + "' (gridvolume, constvolume)");
+    }
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+  }
+
+  int read_gridvolume(const pugi::xml_node& node, Props& p) {
+    GridVolume v;
+    v.where = ctx_.where(node);
+    std::optional<std::string> filename = p.get_string("filename");
+    if (!filename) ctx_.fail(node, p.what() + " needs a 'filename' property");
+    const std::string grid_name = p.get_string("grid").value_or("density");
+    const std::string path = ctx_.resolve(*filename);
+    const bool vdb = path.size() >= 4 && path.compare(path.size() - 4, 4, ".vdb") == 0;
+    if (!vdb && p.has("grid")) p.fail("grid", "'grid' names a grid of an OpenVDB (.vdb) file, not of a .vol");
+    try {
+      v.grid = vdb ? read_vdb(path, grid_name) : read_vol(path);
+    } catch (const InputError& e) {
+      throw InputError(v.where, e.what());
+    }
+    const std::string filter = p.get_string("filter_type").value_or("trilinear");
+    if (filter != "trilinear" && filter != "nearest")
+      p.fail("filter_type", "filter_type must be trilinear or nearest, not '" + filter + "'");
+    v.nearest = filter == "nearest";
+    const std::string wrap = p.get_string("wrap_mode").value_or("clamp");
+    if (wrap != "clamp") p.fail("wrap_mode", "wrap_mode '" + wrap + "' is not supported (clamp)");
+    v.to_world = p.get_transform("to_world").value_or(glm::mat4(1.0f));
+    if (p.get_bool("use_grid_bbox").value_or(false)) {
+      const glm::vec3 extent = v.grid.bbox_max - v.grid.bbox_min;
+      if (!(extent.x > 0.0f && extent.y > 0.0f && extent.z > 0.0f))
+        ctx_.fail(node, "use_grid_bbox: the grid file's bounding box is empty");
+      v.to_world = v.to_world * glm::translate(glm::mat4(1.0f), v.grid.bbox_min) * glm::scale(glm::mat4(1.0f), extent);
+    }
+    if (glm::determinant(glm::mat3(v.to_world)) == 0.0f) ctx_.fail(node, "to_world of the gridvolume is singular");
+    scene_.volumes.push_back(std::move(v));
+    return static_cast<int>(scene_.volumes.size()) - 1;
   }
 
   void read_phase(const pugi::xml_node& node, Medium& m) {

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "scene/volume_grid.h"
+
 namespace spm {
 
 struct Material {
@@ -22,10 +24,24 @@ struct Material {
 };
 
 struct Medium {
+  // Homogeneous: the coefficients. Heterogeneous (METHOD.md 12): factors on
+  // the values of the grids sigma_t_grid and albedo_grid at a point, where
+  // the medium names one (-1: the factor alone).
   glm::vec3 sigma_t{1.0f};  // already multiplied by `scale`
-  glm::vec3 albedo{0.75f};  // Mitsuba 3's homogeneous defaults
+  glm::vec3 albedo{0.75f};  // Mitsuba 3's defaults
+  int sigma_t_grid = -1;    // index into Scene::volumes
+  int albedo_grid = -1;
   bool hg = false;          // phase: isotropic, or Henyey-Greenstein with g
   float g = 0.0f;
+  std::string where;
+  bool heterogeneous() const { return sigma_t_grid >= 0 || albedo_grid >= 0; }
+};
+
+// A gridvolume: the grid over the unit cube of to_world.
+struct GridVolume {
+  VolumeGrid grid;
+  glm::mat4 to_world{1.0f};
+  bool nearest = false;  // filter_type nearest, else trilinear
   std::string where;
 };
 
@@ -114,6 +130,7 @@ struct Scene {
   IntegratorSettings integrator;
   std::vector<Material> materials;
   std::vector<Medium> media;
+  std::vector<GridVolume> volumes;
   std::vector<Light> lights;
   std::vector<Shape> shapes;
 };

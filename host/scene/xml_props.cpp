@@ -18,7 +18,8 @@ bool one_of(const std::string& tag, const Tags& tags) {
 constexpr const char* kPropertyTags[] = {"float",    "integer", "boolean", "string",   "rgb",
                                          "spectrum", "point",   "vector",  "transform"};
 constexpr const char* kObjectTags[] = {"sensor",  "film",   "rfilter", "sampler",    "shape", "bsdf",
-                                       "emitter", "medium", "phase",   "integrator", "ref"};
+                                       "emitter", "medium", "phase",   "integrator", "ref",
+                                       "volume"};
 
 // A property element holds its value in attributes; anything inside it
 // (elements or text) would otherwise be skipped silently.

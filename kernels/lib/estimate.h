@@ -6,6 +6,7 @@
 #define SPM_LIB_ESTIMATE_H
 
 #include "grid.h"
+#include "medium.h"
 #include "phase.h"
 
 /* A surface record counts if it lies within this fraction of r of the query's
@@ -26,6 +27,8 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  * the throughput up to t0). Each record whose sphere of radius r the segment
  * crosses is counted once: in the cell holding its closest point on the ray.
  * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
+ *   in a heterogeneous medium T and the albedo come from the segment's
+ *   table `tab` (tab->n > 0; medium.h), else in closed form;
  * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
  * Records deeper than max_rec_depth (item_pos.w holds the depth) are left
  * out: their paths would be longer than max_depth (METHOD.md 10); records
@@ -35,7 +38,7 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
                             uint density_kernel, uint estimator, uint min_rec_depth, uint max_rec_depth,
-                            uint* tests) {
+                            const SpmMediumTable* tab, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (grid->info->records == 0 || !grid_walk_begin(grid->info, o, d, t0, t1, &walk)) return sum;
@@ -63,12 +66,19 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
         sum += flux;
       } else {
         const float cos_theta = -dot(load3(rec->direction), d);
-        sum += kernel_2d(density_kernel, d2, r2) * exp(-sigma_t * (t - t0)) * phase_hg(cos_theta, g) * flux;
+        const float w = kernel_2d(density_kernel, d2, r2) * phase_hg(cos_theta, g);
+        if (tab->n > 0u) {
+          float3 albedo;
+          const float3 tau = medium_table_depth(tab, t, &albedo);
+          sum += w * exp(-tau) * albedo * flux;
+        } else {
+          sum += w * exp(-sigma_t * (t - t0)) * flux;
+        }
       }
     }
   } while (grid_walk_next(grid->info, &walk));
   if (estimator == SPM_ESTIMATOR_PAPER) return sum / (SPM_PI * r2 * (t1 - t0));
-  return sum * load3(media[m].albedo);
+  return tab->n > 0u ? sum : sum * load3(media[m].albedo);
 }
 
 /* 1D kernel normalised over [-r, r] (d2: squared distance): uniform

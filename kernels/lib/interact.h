@@ -11,6 +11,7 @@
 #define SPM_LIB_INTERACT_H
 
 #include "bsdf.h"
+#include "medium.h"
 #include "phase.h"
 #include "stream.h"
 
@@ -84,7 +85,7 @@ inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStream
   }
   st.depth[s] = depth;
   st.flags[s] = (st.flags[s] | SPM_STREAM_HAD_EVENT) & ~SPM_STREAM_AFTER_SPECULAR;
-  const float3 albedo = load3(m->albedo);
+  const float3 albedo = medium_albedo(&sc->md, st.medium[s], x);
   const float w = goes_on(p, st, s, depth, flux * albedo, rng, counts);
   if (w == 0.0f) return SPM_TO_END;
   if (++st.medium_events[s] >= SPM_MAX_MEDIUM_EVENTS) return end_stream(st, s, SPM_END_CAPPED, counts, SPM_COUNT_CAPPED);

@@ -22,6 +22,7 @@
 #define SPM_RNG_ROULETTE 10u
 #define SPM_RNG_MEDIUM_NEE 11u
 #define SPM_RNG_FINAL_GATHER 12u
+#define SPM_RNG_TRANSMITTANCE 13u
 
 typedef struct SpmRng {
   uint seed;

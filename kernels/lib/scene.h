@@ -11,11 +11,20 @@
       const __global SpmPrimNormals *scene_normals, const __global SpmShape *scene_shapes,        \
       const __global SpmMaterial *scene_materials, const __global SpmMedium *scene_media,         \
       const __global SpmLight *scene_lights, const __global SpmLightPrim *scene_light_prims,      \
-      const __global float *scene_light_cdf, uint scene_num_prims, uint scene_num_lights
+      const __global float *scene_light_cdf, const __global SpmGridVolume *scene_grids,           \
+      const __global float *scene_grid_data, uint scene_num_prims, uint scene_num_lights
 
 #define SPM_SCENE                                                                                 \
   make_scene(scene_nodes, scene_prims, scene_normals, scene_shapes, scene_materials, scene_media, \
-             scene_lights, scene_light_prims, scene_light_cdf, scene_num_prims, scene_num_lights)
+             scene_lights, scene_light_prims, scene_light_cdf, scene_grids, scene_grid_data, scene_num_prims, \
+             scene_num_lights)
+
+/* The medium tables kernels/lib/medium.h reads. */
+typedef struct SpmMedia {
+  const __global SpmMedium* media;
+  const __global SpmGridVolume* grids;
+  const __global float* grid_data;
+} SpmMedia;
 
 typedef struct SpmScene {
   const __global SpmBvhNode* nodes;
@@ -27,6 +36,7 @@ typedef struct SpmScene {
   const __global SpmLight* lights;
   const __global SpmLightPrim* light_prims;
   const __global float* light_cdf; /* inclusive CDF over lights by power */
+  SpmMedia md;                     /* media with their grids (medium.h) */
   uint num_prims;
   uint num_lights;
   float extent; /* largest absolute coordinate of the BVH's bounds (offset_origin) */
@@ -36,7 +46,8 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
                            const __global SpmPrimNormals* normals, const __global SpmShape* shapes,
                            const __global SpmMaterial* materials, const __global SpmMedium* media,
                            const __global SpmLight* lights, const __global SpmLightPrim* light_prims,
-                           const __global float* light_cdf, uint num_prims, uint num_lights) {
+                           const __global float* light_cdf, const __global SpmGridVolume* grids,
+                           const __global float* grid_data, uint num_prims, uint num_lights) {
   SpmScene s;
   s.nodes = nodes;
   s.prims = prims;
@@ -47,6 +58,9 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
   s.lights = lights;
   s.light_prims = light_prims;
   s.light_cdf = light_cdf;
+  s.md.media = media;
+  s.md.grids = grids;
+  s.md.grid_data = grid_data;
   s.num_prims = num_prims;
   s.num_lights = num_lights;
   s.extent = 0.0f;
@@ -63,12 +77,6 @@ inline bool scene_intersect(const SpmScene* s, float3 o, float3 d, float tmax, S
 
 inline SpmSurface scene_surface(const SpmScene* s, float3 o, float3 d, SpmHit h) {
   return surface_at(s->prims, s->normals, s->shapes, s->extent, o, d, h);
-}
-
-/* Transmittance of a homogeneous medium over `dist` (paper eq. 2). */
-inline float3 medium_transmittance(const SpmScene* s, int medium, float dist) {
-  if (medium < 0) return (float3)(1.0f);
-  return exp(-load3(s->media[medium].sigma_t) * dist);
 }
 
 /* First index i with cdf[i] > u (cdf inclusive, last entry 1). */
