@@ -308,7 +308,8 @@ int main(int argc, char** argv) {
                      "Russian roulette on streams and paths from this vertex on (integrator 'rr_depth'); default 5")
       ->check(CLI::Range(1, 1 << 30));
   render->add_option("--march-step", r.march_step,
-                     "Ray-marching interval in media; 0 samples free flights exactly (integrator 'march_step'); default 0");
+                     "Ray-marching interval in media (integrator 'march_step'); 0: exact free flights, and in heterogeneous "
+                     "media delta and ratio tracking; default 0");
   render->add_option("--radius", r.radius,
                      "Search radius r of the estimates, first pass (integrator 'radius'); default: derived from a "
                      "pilot of the pass's streams, the distance to the 32nd nearest event");

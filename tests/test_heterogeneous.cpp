@@ -477,6 +477,22 @@ TEST_F(HeterogeneousScene, StreamBeamsRefuseHeterogeneousMedia) {
   }
 }
 
+TEST_F(HeterogeneousScene, AGridLargerThanTheDeviceBudgetFailsNamingIt) {
+  write_grid("big.vol", constant_grid(64, 0.5f));
+  const spm::Scene s = load(box_scene(grid_medium_xml("big.vol", 1.0f), 4));
+  spm::RenderSettings r;
+  r.passes = 1;
+  r.memory_budget = 600000;  // less than the grid's 1 MiB of values
+  try {
+    spm::render(s, r, spm::test::device());
+    FAIL() << "rendered";
+  } catch (const spm::RuntimeError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("volume grid values"), std::string::npos) << m;
+    EXPECT_NE(m.find("--device-memory"), std::string::npos) << m;
+  }
+}
+
 // A grid of ones times sigma_t is the homogeneous medium of that sigma_t.
 // Delta tracking's majorant is then sigma_t itself, every tentative
 // collision is real, and the flights draw the numbers the homogeneous
