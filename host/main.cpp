@@ -353,10 +353,11 @@ int main(int argc, char** argv) {
   spm::BenchOptions bench_options;
   std::string bench_device;
   auto* bench = app.add_subcommand(
-      "bench", "Time a fixed suite (Fig. 3 (a), (b), scaling in streams and associated photons, a global fog box) "
+      "bench", "Time a fixed suite (Fig. 3 (a), (b), scaling in streams and associated photons, a global fog box, "
+      "a smoke plume) "
       "stage by stage and "
       "kernel by kernel: medians of --repeat one-pass renders");
-  bench->add_option("--scenes", bench_options.scenes_dir, "Directory holding cornell_fog.xml and fog_box.xml")
+  bench->add_option("--scenes", bench_options.scenes_dir, "Directory holding cornell_fog.xml, fog_box.xml and smoke_cornell.xml")
       ->check(CLI::ExistingDirectory);
   bench->add_option("--repeat", bench_options.repeat, "Timed repetitions after one warm-up")
       ->check(CLI::PositiveNumber);
@@ -366,6 +367,9 @@ int main(int argc, char** argv) {
   bench->add_option("--json", bench_options.json,
                     "Also write the results as JSON, with per-kernel medians and occupancy (tools/plot_bench.py)");
   bench->add_flag("--quick", bench_options.quick, "Fig. 3 (a) and (b) only, without the scaling cases");
+  bench->add_option("--cases", bench_options.cases,
+                    "Only these cases (fig3a fig3b s10k_a10 s100k_a10 fog_box smoke smoke_step1 smoke_mean)")
+      ->delimiter(',');
   bench->add_option("--device", bench_device, "Device, as for render");
 
   std::string compare_image, compare_reference;

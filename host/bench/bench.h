@@ -17,6 +17,7 @@ struct BenchOptions {
   int resolution = 512;
   int spp = 4;
   bool quick = false;     // Fig. 3 (a) and (b) only
+  std::vector<std::string> cases;  // only these cases; empty: all
   std::string csv, json;  // also write the results here when not empty
 };
 
