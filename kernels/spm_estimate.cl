@@ -32,10 +32,12 @@ __kernel void spm_stream_beam_test(const __global SpmGridInfo* info, const __glo
   const uint i = get_global_id(0);
   if (i >= count) return;
   uint tests = 0;
+  SpmMediumTable homogeneous;
+  homogeneous.n = 0;
   const float3 l =
       stream_beam_estimate(info, cell_start, items, beams, media, medium, origins[i].xyz, directions[i].xyz,
                            origins[i].w, directions[i].w, radius, density_kernel, min_rec_depth, max_rec_depth,
-                           &tests);
+                           &homogeneous, &tests);
   out[i] = (float4)(l, (float)tests);
 }
 

@@ -184,14 +184,15 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
   return tr * sigma_s * phase_hg(dot(wi, d), g) * li / pdf;
 }
 
-/* The beam radiance estimate along [t0, t1] in a heterogeneous medium: in
- * pieces of SPM_TABLE_KNOTS knots, each with the table of optical depth and
- * albedo that all its records read (medium.h), attenuated by the depth of
- * the pieces before it. Only the part inside the medium's grids can hold
- * records; before it, the depth is that of a constant sigma_t, or 0 where
- * sigma_t is a grid (0 outside its cube). */
-inline float3 heterogeneous_beam_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d,
-                                          float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
+/* The volume estimate (records or stream beams) along [t0, t1] in a
+ * heterogeneous medium: in pieces of SPM_TABLE_KNOTS knots, each with the
+ * table of optical depth and albedo that all its records or beams read
+ * (medium.h), attenuated by the depth of the pieces before it. Only the
+ * part inside the medium's grids can scatter; before it, the depth is that
+ * of a constant sigma_t, or 0 where sigma_t is a grid (0 outside its
+ * cube). */
+inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d,
+                                            float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
   float a = t0, b = t1;
   if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
   const __global SpmMedium* m = &s->media[medium];
@@ -206,9 +207,15 @@ inline float3 heterogeneous_beam_estimate(const SpmScene* s, const SpmMaps* maps
     const float tb = fmin(b, ta + (float)(SPM_TABLE_KNOTS - 1) * h);
     const uint n = clamp((uint)ceil((tb - ta) / h) + 1u, 2u, (uint)SPM_TABLE_KNOTS);
     medium_table_fill(&s->md, medium, o, d, ta, h, n, &tab);
-    sum += exp(-tau) * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, ta,
-                                     tb, maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth,
-                                     &tab, tests);
+    if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
+      sum += exp(-tau) * stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams,
+                                              s->media, medium, o, d, ta, tb, maps->beam_radius,
+                                              maps->density_kernel, min_depth, max_depth, &tab, tests);
+    } else {
+      sum += exp(-tau) * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d,
+                                       ta, tb, maps->radius, maps->density_kernel, maps->estimator, min_depth,
+                                       max_depth, &tab, tests);
+    }
     float3 albedo;
     tau += medium_table_depth(&tab, tb, &albedo);
     if (!(tb > ta)) break;
@@ -222,14 +229,15 @@ inline float3 heterogeneous_beam_estimate(const SpmScene* s, const SpmMaps* maps
  * depths min_depth .. max_depth. */
 inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
                               float t1, uint min_depth, uint max_depth, uint* tests) {
-  if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
-    return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media, medium, o,
-                                d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth, tests);
-  }
-  if (maps->estimator == SPM_ESTIMATOR_BRE && medium_is_heterogeneous(&s->media[medium]))
-    return heterogeneous_beam_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
+  if (maps->estimator != SPM_ESTIMATOR_PAPER && medium_is_heterogeneous(&s->media[medium]))
+    return heterogeneous_volume_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
   SpmMediumTable homogeneous;
   homogeneous.n = 0u;
+  if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
+    return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media, medium, o,
+                                d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth,
+                                &homogeneous, tests);
+  }
   return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, t0, t1,
                        maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, &homogeneous, tests);
 }

@@ -92,9 +92,14 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
       direct_(kDirectOption.code(scene.integrator.direct)),
       final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE) {
+  // A stream beam in a medium whose sigma_t varies per channel would need its
+  // own optical depth per channel (estimate.h); grey ones need none.
   for (const Medium& m : scene.media) {
-    if (estimator_ == SPM_ESTIMATOR_BEAMS && m.heterogeneous())
-      throw InputError(m.where, "the stream beams (estimator beams) do not read heterogeneous media yet; use bre");
+    const bool grey = m.sigma_t.x == m.sigma_t.y && m.sigma_t.y == m.sigma_t.z &&
+                      (m.sigma_t_grid < 0 || scene.volumes[m.sigma_t_grid].grid.channels == 1);
+    if (estimator_ == SPM_ESTIMATOR_BEAMS && m.heterogeneous() && !grey)
+      throw InputError(m.where, "the stream beams (estimator beams) read heterogeneous media with grey sigma_t only; "
+                                "use bre");
   }
   const size_t used = propagator_.bytes() + gather_.bytes();
   maps_budget_ = after_scene(device, gpu_) > used ? after_scene(device, gpu_) - used : 0;

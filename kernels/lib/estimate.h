@@ -98,7 +98,11 @@ inline float kernel_1d(uint density_kernel, float d2, float r) {
  * beam. A beam ends at the stream's sampled next event, which the stream
  * reached with probability exp(-mean(sigma_t) s) (march's free flight), so
  * instead of the beam's transmittance it carries
- * w(s) = exp(-(sigma_t - mean) s), 1 in a grey medium. Each beam is counted
+ * w(s) = exp(-(sigma_t - mean) s), 1 in a grey medium. In a heterogeneous
+ * medium (tab->n > 0; grey, the only kind the host lets beams into) T_ray,
+ * sigma_t and the albedo at the ray's point come from the segment's table
+ * (medium.h), and w is 1: a point s along the beam is reached with the
+ * probability its transmittance gives. Each beam is counted
  * in the one cell of its capsule grid that holds the ray's closest point.
  * Beams deeper than max_rec_depth or shallower than min_rec_depth are left
  * out (METHOD.md 10; as in beam_estimate); beams within
@@ -108,7 +112,7 @@ inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __glo
                                    const __global uint* items, const __global SpmBeam* beams,
                                    const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1,
                                    float r, uint density_kernel, uint min_rec_depth, uint max_rec_depth,
-                                   uint* tests) {
+                                   const SpmMediumTable* tab, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (info->records == 0 || !grid_walk_begin(info, o, d, t0, t1, &walk)) return sum;
@@ -137,11 +141,17 @@ inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __glo
       if (d2 >= r2) continue;
       const int3 home = grid_cell_of(info, x);
       if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
-      sum += kernel_1d(density_kernel, d2, r) * rsqrt(sin2) * exp(-sigma_t * (t - t0) - excess * sb) *
-             phase_hg(-a, g) * vload3(0, b->flux);
+      const float w = kernel_1d(density_kernel, d2, r) * rsqrt(sin2) * phase_hg(-a, g);
+      if (tab->n > 0u) {
+        float3 albedo;
+        const float3 tau = medium_table_depth(tab, t, &albedo);
+        sum += w * exp(-tau) * medium_table_sigma_t(tab, t) * albedo * vload3(0, b->flux);
+      } else {
+        sum += w * exp(-sigma_t * (t - t0) - excess * sb) * vload3(0, b->flux);
+      }
     }
   } while (grid_walk_next(info, &walk));
-  return sum * sigma_t * load3(media[m].albedo);
+  return tab->n > 0u ? sum : sum * sigma_t * load3(media[m].albedo);
 }
 
 /* Surface record normals ride in item_pos.w as three 10-bit components

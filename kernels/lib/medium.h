@@ -309,6 +309,13 @@ inline void medium_table_fill(const SpmMedia* md, int m, float3 o, float3 d, flo
   }
 }
 
+/* sigma_t at t: the midpoint value of the table's step holding t, the
+ * slope of its optical depth. */
+inline float3 medium_table_sigma_t(const SpmMediumTable* tab, float t) {
+  const uint k = min((uint)clamp((t - tab->t) / tab->h, 0.0f, (float)(tab->n - 1u)), tab->n - 2u);
+  return (tab->tau[k + 1u] - tab->tau[k]) / tab->h;
+}
+
 /* Optical depth from the table's start to t, and the albedo at t. */
 inline float3 medium_table_depth(const SpmMediumTable* tab, float t, float3* albedo) {
   const float x = clamp((t - tab->t) / tab->h, 0.0f, (float)(tab->n - 1u));
