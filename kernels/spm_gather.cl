@@ -96,14 +96,46 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   return load3(m->reflectance) * SPM_INV_PI * cos_x * li * tr;
 }
 
+/* A light point y picked by power for single scattering along o + t d
+ * (METHOD.md 5), and the ray's equi-angular frame about it (Kulla and
+ * Fajardo 2012): t = delta + D tan(theta), theta uniform between a
+ * segment's ends as seen from y, at distance D from the ray. */
+typedef struct SpmNeeLight {
+  const __global SpmLight* light;
+  float3 y, yn;
+  float prob;
+  float delta, D;
+} SpmNeeLight;
+
+inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) {
+  SpmNeeLight n;
+  n.light = sample_light_point(s, rng4(rng, SPM_RNG_MEDIUM_NEE, 0), &n.y, &n.yn, &n.prob);
+  n.delta = dot(n.y - o, d);
+  n.D = length(n.y - (o + n.delta * d));
+  return n;
+}
+
+/* The light of n's point scattered at x towards -d: its radiance, the
+ * phase function and the shadow ray's transmittance. */
+inline float3 nee_arrival(const SpmScene* s, const SpmNeeLight* n, float3 x, float3 d, float g, int medium,
+                          float step, SpmRng rng) {
+  float3 wi;
+  float dist;
+  const float3 li = light_incident(n->light, x, n->y, n->yn, n->prob, &wi, &dist);
+  if (max_comp(li) <= 0.0f) return (float3)(0.0f);
+  /* Stop short of an area light's own surface; point lights have none. */
+  const float reach = dot(n->yn, n->yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
+  return li * phase_hg(dot(wi, d), g) * shadow_transmittance(s, x, wi, reach, medium, step, rng, SPM_TR_NEE_SHADOW);
+}
+
 /* Single scattering towards the camera along [t0, t1] of a ray through
- * `medium`, by next-event estimation (METHOD.md 5): a light point y picked
- * by power, then two distances along the ray, one equi-angular about y
- * (Kulla and Fajardo 2012: sharp where the ray passes the light) and one by
- * free flight truncated to the segment (where transmittance dominates),
- * combined by the balance heuristic, each with a shadow ray that carries
- * transmittance. The photon records of streams without an earlier event
- * are left out of the volume estimate instead (host/spm/map_grids.cpp). */
+ * `medium`, by next-event estimation (METHOD.md 5): a light point (nee_light),
+ * then two distances along the ray, one equi-angular about it (sharp where
+ * the ray passes the light) and one by free flight truncated to the segment
+ * (where transmittance dominates), combined by the balance heuristic, each
+ * with a shadow ray that carries transmittance. The photon records of
+ * streams without an earlier event are left out of the volume estimate
+ * instead (host/spm/map_grids.cpp). */
 inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1, float step,
                             SpmRng rng) {
   const __global SpmMedium* m = &s->media[medium];
@@ -111,17 +143,11 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
   const float3 sigma_s = sigma_t * load3(m->albedo);
   if (max_comp(sigma_s) <= 0.0f || !(t1 > t0)) return (float3)(0.0f);
   const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
-  float3 y, yn;
-  float prob;
-  const __global SpmLight* l = sample_light_point(s, rng4(rng, SPM_RNG_MEDIUM_NEE, 0), &y, &yn, &prob);
+  const SpmNeeLight n = nee_light(s, o, d, rng);
   const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
-  /* Equi-angular: t = delta + D tan(theta), theta uniform between the
-   * segment's ends as seen from y, at distance D from the ray. */
-  const float delta = dot(y - o, d);
-  const float D = length(y - (o + delta * d));
-  const bool angular = D > 0.0f;
-  const float th0 = atan2(t0 - delta, D);
-  const float th1 = isinf(t1) ? 0.5f * SPM_PI : atan2(t1 - delta, D);
+  const bool angular = n.D > 0.0f;
+  const float th0 = atan2(t0 - n.delta, n.D);
+  const float th1 = isinf(t1) ? 0.5f * SPM_PI : atan2(t1 - n.delta, n.D);
   /* Free flight with the mean extinction (METHOD.md 3), truncated to the
    * segment: `mass` is its probability of an event within it. */
   const float sigma = mean_comp(sigma_t);
@@ -130,19 +156,13 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
   float3 sum = (float3)(0.0f);
   for (int k = 0; k < 2; ++k) {
     if (k == 0 ? !angular : !flight) continue;
-    const float t = k == 0 ? delta + D * tan(th0 + u.x * (th1 - th0)) : t0 - log1p(-u.y * mass) / sigma;
+    const float t = k == 0 ? n.delta + n.D * tan(th0 + u.x * (th1 - th0)) : t0 - log1p(-u.y * mass) / sigma;
     if (!(t >= t0 && t <= t1)) continue;
-    const float pdf_angular = angular ? D / ((th1 - th0) * (D * D + (t - delta) * (t - delta))) : 0.0f;
+    const float pdf_angular =
+        angular ? n.D / ((th1 - th0) * (n.D * n.D + (t - n.delta) * (t - n.delta))) : 0.0f;
     const float pdf_flight = flight ? sigma * exp(-sigma * (t - t0)) / mass : 0.0f;
-    const float3 x = o + t * d;
-    float3 wi;
-    float dist;
-    const float3 li = light_incident(l, x, y, yn, prob, &wi, &dist);
-    if (max_comp(li) <= 0.0f) continue;
-    /* Stop short of an area light's own surface; point lights have none. */
-    const float reach = dot(yn, yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
-    const float3 tr = shadow_transmittance(s, x, wi, reach, medium, step, rng, SPM_TR_NEE_SHADOW);
-    sum += exp(-sigma_t * (t - t0)) * sigma_s * phase_hg(dot(wi, d), g) * li * tr / (pdf_angular + pdf_flight);
+    sum += exp(-sigma_t * (t - t0)) * sigma_s * nee_arrival(s, &n, o + t * d, d, g, medium, step, rng) /
+           (pdf_angular + pdf_flight);
   }
   return sum;
 }
@@ -159,29 +179,21 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
   if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
   const __global SpmMedium* m = &s->media[medium];
   const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
-  float3 y, yn;
-  float prob;
-  const __global SpmLight* l = sample_light_point(s, rng4(rng, SPM_RNG_MEDIUM_NEE, 0), &y, &yn, &prob);
+  const SpmNeeLight n = nee_light(s, o, d, rng);
   const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
-  const float delta = dot(y - o, d);
-  const float D = length(y - (o + delta * d));
-  if (!(D > 0.0f)) return (float3)(0.0f);
-  const float th0 = atan2(a - delta, D);
-  const float th1 = atan2(b - delta, D);
-  const float t = delta + D * tan(th0 + u.x * (th1 - th0));
+  if (!(n.D > 0.0f)) return (float3)(0.0f);
+  const float th0 = atan2(a - n.delta, n.D);
+  const float th1 = atan2(b - n.delta, n.D);
+  const float t = n.delta + n.D * tan(th0 + u.x * (th1 - th0));
   if (!(t >= a && t <= b)) return (float3)(0.0f);
-  const float pdf = D / ((th1 - th0) * (D * D + (t - delta) * (t - delta)));
+  const float pdf = n.D / ((th1 - th0) * (n.D * n.D + (t - n.delta) * (t - n.delta)));
   const float3 x = o + t * d;
   const float3 sigma_s = medium_sigma_t(&s->md, medium, x) * medium_albedo(&s->md, medium, x);
   if (max_comp(sigma_s) <= 0.0f) return (float3)(0.0f);
-  float3 wi;
-  float dist;
-  const float3 li = light_incident(l, x, y, yn, prob, &wi, &dist);
-  if (max_comp(li) <= 0.0f) return (float3)(0.0f);
-  const float reach = dot(yn, yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
-  const float3 tr = shadow_transmittance(s, x, wi, reach, medium, step, rng, SPM_TR_NEE_SHADOW) *
-                    medium_transmittance(&s->md, medium, o, d, t0, t, step, rng, tr_lane(SPM_TR_NEE_CAMERA, 0u));
-  return tr * sigma_s * phase_hg(dot(wi, d), g) * li / pdf;
+  const float3 arrival = nee_arrival(s, &n, x, d, g, medium, step, rng);
+  if (max_comp(arrival) <= 0.0f) return (float3)(0.0f);
+  return medium_transmittance(&s->md, medium, o, d, t0, t, step, rng, tr_lane(SPM_TR_NEE_CAMERA, 0u)) * sigma_s *
+         arrival / pdf;
 }
 
 /* The volume estimate (records or stream beams) along [t0, t1] in a

@@ -9,6 +9,15 @@
 #include "spm_types.h"
 #include "lib/medium.h"
 
+inline SpmMedia media_tables(const __global SpmMedium* media, const __global SpmGridVolume* grids,
+                             const __global float* grid_data) {
+  SpmMedia md;
+  md.media = media;
+  md.grids = grids;
+  md.grid_data = grid_data;
+  return md;
+}
+
 __kernel void spm_grid_lookup_test(const __global SpmGridVolume* grids, const __global float* grid_data,
                                    const __global float4* points, __global float4* out, uint count, uint grid) {
   const uint i = get_global_id(0);
@@ -21,10 +30,7 @@ __kernel void spm_flight_test(const __global SpmMedium* media, const __global Sp
                               float march_step, uint seed, __global float4* out, uint count) {
   const uint i = get_global_id(0);
   if (i >= count) return;
-  SpmMedia md;
-  md.media = media;
-  md.grids = grids;
-  md.grid_data = grid_data;
+  const SpmMedia md = media_tables(media, grids, grid_data);
   float3 w = (float3)(1.0f);
   const float t =
       heterogeneous_flight(&md, medium, origin.xyz, direction.xyz, direction.w, march_step, rng_make(seed, 0u, i, 0u), &w);
@@ -36,10 +42,7 @@ __kernel void spm_transmittance_test(const __global SpmMedium* media, const __gl
                                      float march_step, uint seed, __global float4* out, uint count) {
   const uint i = get_global_id(0);
   if (i >= count) return;
-  SpmMedia md;
-  md.media = media;
-  md.grids = grids;
-  md.grid_data = grid_data;
+  const SpmMedia md = media_tables(media, grids, grid_data);
   out[i] = (float4)(medium_transmittance(&md, medium, origin.xyz, direction.xyz, origin.w, direction.w, march_step,
                                          rng_make(seed, 0u, i, 0u), 0u),
                     0.0f);

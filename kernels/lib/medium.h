@@ -65,20 +65,21 @@ inline float3 grid_value(const __global SpmGridVolume* g, const __global float* 
   return mix(mix(c00, c10, wy), mix(c01, c11, wy), wz);
 }
 
-inline float3 medium_sigma_t(const SpmMedia* md, int m, float3 x) {
-  const __global SpmMedium* med = &md->media[m];
-  const float3 f = load3(med->sigma_t);
-  if (med->sigma_t_grid < 0) return f;
-  const __global SpmGridVolume* g = &md->grids[med->sigma_t_grid];
+/* A coefficient at world point x: its factor times grid `grid`'s value
+ * there, or the factor alone (grid < 0). */
+inline float3 coefficient_at(const SpmMedia* md, const __global float* factor, int grid, float3 x) {
+  const float3 f = load3(factor);
+  if (grid < 0) return f;
+  const __global SpmGridVolume* g = &md->grids[grid];
   return f * grid_value(g, md->grid_data, grid_point(g, x));
 }
 
+inline float3 medium_sigma_t(const SpmMedia* md, int m, float3 x) {
+  return coefficient_at(md, md->media[m].sigma_t, md->media[m].sigma_t_grid, x);
+}
+
 inline float3 medium_albedo(const SpmMedia* md, int m, float3 x) {
-  const __global SpmMedium* med = &md->media[m];
-  const float3 f = load3(med->albedo);
-  if (med->albedo_grid < 0) return f;
-  const __global SpmGridVolume* g = &md->grids[med->albedo_grid];
-  return f * grid_value(g, md->grid_data, grid_point(g, x));
+  return coefficient_at(md, md->media[m].albedo, md->media[m].albedo_grid, x);
 }
 
 /* Clips [*t0, *t1] of the local ray p + t v to the unit cube; false when
@@ -172,6 +173,49 @@ inline float majorant_of(const __global SpmGridVolume* g, const __global float* 
   return data[g->majorant_offset + ((uint)c.z * g->majorant_dims[1] + (uint)c.y) * g->majorant_dims[0] + (uint)c.x];
 }
 
+/* Tentative collisions of delta and ratio tracking along a ray through a
+ * medium's sigma_t grid: exponential steps against each majorant cell's
+ * bound, a fresh one where a step leaves its cell (the exponential has no
+ * memory). Draw k uses lane `lane + k` of `purpose`, one float4 each. */
+typedef struct SpmTracking {
+  SpmMajorantWalk walk;
+  const __global SpmGridVolume* grid;
+  float scale; /* max_comp of the medium's sigma_t factor: the majorant bounds every channel */
+  float mu;    /* majorant of the current cell */
+  float t;     /* the current tentative collision */
+  uint k;      /* draws so far */
+} SpmTracking;
+
+/* Starts on [t0, t1] of o + t d; false when it misses the grid. Medium m
+ * must have a sigma_t grid. */
+inline bool tracking_begin(const SpmMedia* md, int m, float3 o, float3 d, float t0, float t1, SpmTracking* tr) {
+  const __global SpmMedium* med = &md->media[m];
+  tr->grid = &md->grids[med->sigma_t_grid];
+  if (!majorant_begin(tr->grid, grid_point(tr->grid, o), grid_vector(tr->grid, d), t0, t1, &tr->walk)) return false;
+  tr->scale = max_comp(load3(med->sigma_t));
+  tr->mu = tr->scale * majorant_of(tr->grid, md->grid_data, tr->walk.cell);
+  tr->t = tr->walk.t;
+  tr->k = 0;
+  return true;
+}
+
+/* Moves to the next tentative collision, tr->t, and gives the draw that
+ * placed it (u->x made the step; the others are the caller's); false past
+ * the walk's end or SPM_MAX_MARCH_STEPS draws. */
+inline bool tracking_next(const SpmMedia* md, SpmTracking* tr, SpmRng rng, uint purpose, uint lane, float4* u) {
+  for (;;) {
+    if (tr->k >= SPM_MAX_MARCH_STEPS) return false;
+    if (tr->mu > 0.0f) {
+      *u = rng4(rng, purpose, lane + tr->k++);
+      tr->t -= log(1.0f - u->x) / tr->mu;
+      if (tr->t < majorant_exit(&tr->walk)) return true;
+    }
+    if (!majorant_next(tr->grid, &tr->walk)) return false;
+    tr->t = tr->walk.t;
+    tr->mu = tr->scale * majorant_of(tr->grid, md->grid_data, tr->walk.cell);
+  }
+}
+
 /* Whether sigma_t is grey everywhere, so that no channel weight is needed. */
 inline bool medium_grey(const SpmMedia* md, int m) {
   const __global SpmMedium* med = &md->media[m];
@@ -180,7 +224,7 @@ inline bool medium_grey(const SpmMedia* md, int m) {
 }
 
 /* Distance to the next event of a flight along o + t d, t in [0, tmax), in
- * heterogeneous medium m, or SPM_INF when it gets through; *weight is
+ * medium m, which has a sigma_t grid, or SPM_INF when it gets through; *weight is
  * multiplied by the per-channel ratio of the true to the sampled flight
  * density (1 in a grey medium). step > 0: the paper's ray marching from
  * the grids' cube, sigma_t at each step's midpoint, an event in a step with
@@ -213,29 +257,18 @@ inline float heterogeneous_flight(const SpmMedia* md, int m, float3 o, float3 d,
     }
     return SPM_INF;
   }
-  const __global SpmMedium* med = &md->media[m];
-  const __global SpmGridVolume* g = &md->grids[med->sigma_t_grid];
-  const float fmax_t = max_comp(load3(med->sigma_t));
-  SpmMajorantWalk w;
-  if (med->sigma_t_grid < 0 || !majorant_begin(g, grid_point(g, o), grid_vector(g, d), t0, t1, &w)) return SPM_INF;
-  uint k = 0;
-  do {
-    const float mu = fmax_t * majorant_of(g, md->grid_data, w.cell);
-    const float exit = majorant_exit(&w);
-    float t = w.t;
-    while (mu > 0.0f && k < SPM_MAX_MARCH_STEPS) {
-      const float4 u = rng4(rng, SPM_RNG_DISTANCE, k++);
-      t -= log(1.0f - u.x) / mu;
-      if (t >= exit) break;
-      const float3 sigma = medium_sigma_t(md, m, o + t * d);
-      const float mean = mean_comp(sigma);
-      if (u.y * mu < mean) {
-        if (!grey) *weight *= sigma / mean;
-        return t;
-      }
-      if (!grey) *weight *= (mu - sigma) / (mu - mean);
+  SpmTracking tr;
+  if (!tracking_begin(md, m, o, d, t0, t1, &tr)) return SPM_INF;
+  float4 u;
+  while (tracking_next(md, &tr, rng, SPM_RNG_DISTANCE, 0u, &u)) {
+    const float3 sigma = medium_sigma_t(md, m, o + tr.t * d);
+    const float mean = mean_comp(sigma);
+    if (u.y * tr.mu < mean) {
+      if (!grey) *weight *= sigma / mean;
+      return tr.t;
     }
-  } while (majorant_next(g, &w));
+    if (!grey) *weight *= (tr.mu - sigma) / (tr.mu - mean);
+  }
   return SPM_INF;
 }
 
@@ -260,24 +293,15 @@ inline float3 medium_transmittance(const SpmMedia* md, int m, float3 o, float3 d
     }
     return exp(-tau);
   }
-  const __global SpmGridVolume* g = &md->grids[med->sigma_t_grid];
-  const float fmax_t = max_comp(load3(med->sigma_t));
-  float3 tr = SPM_F3(1.0f, 1.0f, 1.0f);
-  SpmMajorantWalk w;
-  if (!majorant_begin(g, grid_point(g, o), grid_vector(g, d), t0, t1, &w)) return tr;
-  uint k = 0;
-  do {
-    const float mu = fmax_t * majorant_of(g, md->grid_data, w.cell);
-    const float exit = majorant_exit(&w);
-    float t = w.t;
-    while (mu > 0.0f && k < SPM_MAX_MARCH_STEPS) {
-      t -= log(1.0f - rng4(rng, SPM_RNG_TRANSMITTANCE, lane + k++).x) / mu;
-      if (t >= exit) break;
-      tr *= fmax(1.0f - medium_sigma_t(md, m, o + t * d) / mu, 0.0f);
-      if (max_comp(tr) <= 0.0f) return tr;
-    }
-  } while (majorant_next(g, &w));
-  return tr;
+  float3 transmittance = SPM_F3(1.0f, 1.0f, 1.0f);
+  SpmTracking tr;
+  if (!tracking_begin(md, m, o, d, t0, t1, &tr)) return transmittance;
+  float4 u;
+  while (tracking_next(md, &tr, rng, SPM_RNG_TRANSMITTANCE, lane, &u)) {
+    transmittance *= fmax(1.0f - medium_sigma_t(md, m, o + tr.t * d) / tr.mu, 0.0f);
+    if (max_comp(transmittance) <= 0.0f) break;
+  }
+  return transmittance;
 }
 
 /* Knots of the optical-depth table a camera segment's estimates share. */
