@@ -210,6 +210,35 @@ TEST(Validation, AreaLitCausticConvergesToMitsuba) {
   std::printf("caustic_area: spm/volpath mean ratio in the floor caustic %.3f\n", inside);
 }
 
+// A volumetric caustic off a mirror that volpath can render (issue 14, item
+// 5): the tilted mirror of mirror_caustic.xml in fog, lit by a small
+// spherical area light in a black box aimed at it; the floor sees the light
+// only through the mirror. Measured (64x64, max_bounces 32): relMSE after 2
+// passes 0.0288 (seed 7, the one used here; seeds 11, 13: 0.0286, 0.0285),
+// after 8 passes 0.0200 (0.0206, 0.0204); mean ratio spm/volpath 0.987 to
+// 1.021 after 2 passes, 0.992 to 0.999 after 8. Most of it is the
+// reference's own noise (its fireflies: volpath reaches the mirrored light
+// only by hitting the light after the mirror), about 0.02 (64 passes of spm
+// still give 0.0173), hence the small spread over the seeds. The bound
+// 0.0505 is 1.75x the worst seed. The light is hidden from the camera, so no
+// pixel sees it. With the mirror made black (the caustic lost) the relMSE
+// after 8 passes is only 0.071 but the mean ratio 0.46; the floor patch the
+// mirror lights (the rectangle below, inside it; the reference's mean there
+// 0.099, 6.5x the 0.015 left without the mirror) checks the caustic itself:
+// spm/volpath there is 0.977, 0.971, 0.964 after 8 passes over the seeds
+// (0.90 to 1.00 after 2, 0.975 after 64) and the reference's own noise on
+// that mean is about 3%; the caustic lost leaves 0.16, half of it 0.58,
+// doubled 1.8, and 0.85 to 1.1 takes in the seeds with 4 of those 3% on
+// either side.
+TEST(Validation, MirrorAreaCausticConvergesToMitsuba) {
+  const Region patch{34, 41, 56, 49};
+  const Renders r = validate({"mirror_area", 2, 0.0505, {}});
+  const double inside = mean_ratio(r.n4, r.ref, patch, true);
+  EXPECT_GT(inside, 0.85) << "spm/volpath in the floor patch the mirror lights: " << inside;
+  EXPECT_LT(inside, 1.1) << "spm/volpath in the floor patch the mirror lights: " << inside;
+  std::printf("mirror_area: spm/volpath mean ratio in the mirror's floor patch %.3f\n", inside);
+}
+
 // The global fog box written the usual Mitsuba way (issue 12): no spm
 // settings, the fog nested in the sensor; and the same scene with the fog
 // also on every shape. Both render the same image (bit for bit here: the
