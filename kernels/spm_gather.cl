@@ -138,7 +138,7 @@ inline float3 nee_arrival(const SpmScene* s, const SpmNeeLight* n, float3 x, flo
  * instead (host/spm/map_grids.cpp). */
 inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1, float step,
                             SpmRng rng) {
-  const __global SpmMedium* m = &s->media[medium];
+  const __global SpmMedium* m = &s->md.media[medium];
   const float3 sigma_t = load3(m->sigma_t);
   const float3 sigma_s = sigma_t * load3(m->albedo);
   if (max_comp(sigma_s) <= 0.0f || !(t1 > t0)) return (float3)(0.0f);
@@ -177,7 +177,7 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
                                           float step, SpmRng rng) {
   float a = t0, b = t1;
   if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
-  const __global SpmMedium* m = &s->media[medium];
+  const __global SpmMedium* m = &s->md.media[medium];
   const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
   const SpmNeeLight n = nee_light(s, o, d, rng);
   const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
@@ -207,7 +207,7 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
                                             float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
   float a = t0, b = t1;
   if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
-  const __global SpmMedium* m = &s->media[medium];
+  const __global SpmMedium* m = &s->md.media[medium];
   float voxel = SPM_INF;
   if (m->sigma_t_grid >= 0) voxel = s->md.grids[m->sigma_t_grid].voxel;
   if (m->albedo_grid >= 0) voxel = fmin(voxel, s->md.grids[m->albedo_grid].voxel);
@@ -221,10 +221,10 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
     medium_table_fill(&s->md, medium, o, d, ta, h, n, &tab);
     if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
       sum += exp(-tau) * stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams,
-                                              s->media, medium, o, d, ta, tb, maps->beam_radius,
+                                              s->md.media, medium, o, d, ta, tb, maps->beam_radius,
                                               maps->density_kernel, min_depth, max_depth, &tab, tests);
     } else {
-      sum += exp(-tau) * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d,
+      sum += exp(-tau) * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d,
                                        ta, tb, maps->radius, maps->density_kernel, maps->estimator, min_depth,
                                        max_depth, &tab, tests);
     }
@@ -241,16 +241,16 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
  * depths min_depth .. max_depth. */
 inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
                               float t1, uint min_depth, uint max_depth, uint* tests) {
-  if (maps->estimator != SPM_ESTIMATOR_PAPER && medium_is_heterogeneous(&s->media[medium]))
+  if (maps->estimator != SPM_ESTIMATOR_PAPER && medium_is_heterogeneous(&s->md.media[medium]))
     return heterogeneous_volume_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
   SpmMediumTable homogeneous;
   homogeneous.n = 0u;
   if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
-    return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->media, medium, o,
+    return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->md.media, medium, o,
                                 d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth,
                                 &homogeneous, tests);
   }
-  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->media, medium, o, d, t0, t1,
+  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d, t0, t1,
                        maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, &homogeneous, tests);
 }
 
@@ -340,7 +340,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
                                   record_depth_limit(max_depth, specular), tests);
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
-        L += beta * (medium_is_heterogeneous(&s->media[medium])
+        L += beta * (medium_is_heterogeneous(&s->md.media[medium])
                          ? inscatter_nee_heterogeneous(s, medium, o, d, tmin, t_end, maps->march_step, rng)
                          : inscatter_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng));
       }

@@ -74,14 +74,14 @@ __kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global
   if (m >= 0) {
     const SpmRng rng = rng_make(params.seed, params.pass, st_id[s], st_events[s]);
     float3 weight = (float3)(1.0f);
-    if (sc.media[m].sigma_t_grid >= 0) {
+    if (sc.md.media[m].sigma_t_grid >= 0) {
       const float te = heterogeneous_flight(&sc.md, m, o, d, h.t, params.march_step, rng, &weight);
       if (te < h.t) {
         event = SPM_EV_MEDIUM;
         t = te;
       }
     } else {
-      const float3 sigma = load3(sc.media[m].sigma_t);
+      const float3 sigma = load3(sc.md.media[m].sigma_t);
       const float mean = mean_comp(sigma);
       const float te = mean > 0.0f ? free_flight(mean, h.t, params.march_step, rng) : SPM_INF;
       if (te < h.t) {
@@ -92,7 +92,7 @@ __kernel void spm_march(SPM_SCENE_PARAMS, SpmStreamParams params, const __global
         weight = exp(-(sigma - mean) * h.t);
       }
     }
-    if (params.beam_capacity > 0 && st_id[s] < params.beam_streams && max_comp(load3(sc.media[m].albedo)) > 0.0f) {
+    if (params.beam_capacity > 0 && st_id[s] < params.beam_streams && max_comp(load3(sc.md.media[m].albedo)) > 0.0f) {
       const float share = (float)params.pass_streams / (float)params.beam_streams;
       append_beam(&params, beams, counts, s, o, d, t, m, share * (float)st_alive[s] * st_phi[s].xyz, st_id[s],
                   st_depth[s]);

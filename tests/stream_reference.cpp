@@ -402,7 +402,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
     Event state = surface ? Event::Surface : Event::Escape;
     float t = h.t;
     if (medium >= 0) {
-      const float3 sigma = load3(sc.media[medium].sigma_t);
+      const float3 sigma = load3(sc.md.media[medium].sigma_t);
       const float mean = mean_comp(sigma);
       float3 weight(1.0f);
       const float te = mean > 0.0f ? free_flight(mean, h.t, set.march_step, rng, margins) : SPM_INF;
@@ -437,7 +437,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         out.end = StreamEnd::MaxDepth;
       } else {
         const float3 x = origin + t * dir;
-        const SpmMedium& m = sc.media[medium];
+        const SpmMedium& m = sc.md.media[medium];
         SpmVolumeRecord r{};
         vstore3(x, 0, r.position);
         vstore3(dir, 0, r.direction);

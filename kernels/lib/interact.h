@@ -67,7 +67,7 @@ inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStream
   if (!depth_counts(depth, p->max_depth)) return end_stream(st, s, SPM_END_DEPTH, counts, SPM_COUNT_END_DEPTH);
   const float3 d = st.direction[s].xyz;
   const float3 x = st.origin[s].xyz + t * d;
-  const __global SpmMedium* m = &sc->media[st.medium[s]];
+  const __global SpmMedium* m = &sc->md.media[st.medium[s]];
   const float3 flux = (float)st.alive[s] * st.phi[s].xyz;
   if (p->beam_capacity == 0) {
     const uint slot = atomic_inc(&counts[SPM_COUNT_VOLUME]);

@@ -32,7 +32,6 @@ typedef struct SpmScene {
   const __global SpmPrimNormals* normals;
   const __global SpmShape* shapes;
   const __global SpmMaterial* materials;
-  const __global SpmMedium* media;
   const __global SpmLight* lights;
   const __global SpmLightPrim* light_prims;
   const __global float* light_cdf; /* inclusive CDF over lights by power */
@@ -54,7 +53,6 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
   s.normals = normals;
   s.shapes = shapes;
   s.materials = materials;
-  s.media = media;
   s.lights = lights;
   s.light_prims = light_prims;
   s.light_cdf = light_cdf;
