@@ -199,15 +199,19 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
 /* The volume estimate (records or stream beams) along [t0, t1] in a
  * heterogeneous medium: in pieces of SPM_TABLE_KNOTS knots, each with the
  * table of optical depth and albedo that all its records or beams read
- * (medium.h), attenuated by the depth of the pieces before it. Only the
- * part inside the medium's grids can scatter; before it, the depth is that
- * of a constant sigma_t, or 0 where sigma_t is a grid (0 outside its
- * cube). */
+ * (medium.h), attenuated by the depth of the pieces before it. The pieces
+ * start where the optical depth from t0 is known: at the sigma_t grid's
+ * cube (0 before it), or, for a constant sigma_t, at the albedo grid's
+ * (sigma_t times the distance); they end where the medium stops
+ * scattering (medium_clip). */
 inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d,
                                             float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
-  float a = t0, b = t1;
-  if (!medium_clip(&s->md, medium, o, d, &a, &b)) return (float3)(0.0f);
   const __global SpmMedium* m = &s->md.media[medium];
+  float a = t0, b = t1, end_a = t0, end = t1;
+  if (!grid_clip(&s->md, m->sigma_t_grid >= 0 ? m->sigma_t_grid : m->albedo_grid, o, d, &a, &b) ||
+      !medium_clip(&s->md, medium, o, d, &end_a, &end))
+    return (float3)(0.0f);
+  b = fmin(b, end);
   float voxel = SPM_INF;
   if (m->sigma_t_grid >= 0) voxel = s->md.grids[m->sigma_t_grid].voxel;
   if (m->albedo_grid >= 0) voxel = fmin(voxel, s->md.grids[m->albedo_grid].voxel);

@@ -189,10 +189,22 @@ struct RampFlights {
   double escaped = 0.0, escaped_expected = 0.0, escaped_error = 0.0;
 };
 
-RampFlights ramp_flights(float step, uint32_t n) {
+// An albedo grid of ones over the ramp's first half only: the medium
+// scatters there alone, but its extinction is the ramp's everywhere.
+GridVolume first_half_albedo(float length) {
+  GridVolume v;
+  v.grid.nx = v.grid.ny = v.grid.nz = 2;
+  v.grid.data.assign(8, 1.0f);
+  v.to_world = glm::scale(glm::mat4(1.0f), glm::vec3(0.5f * length, 1.0f, 1.0f));
+  return v;
+}
+
+RampFlights ramp_flights(float step, uint32_t n, bool half_albedo = false) {
   const uint32_t texels = 16;
   const float length = 2.0f, scale = 2.0f;
-  MediumRig rig({ramp(texels, length)}, {grid_medium(glm::vec3(scale), 0)});
+  SpmMedium medium = grid_medium(glm::vec3(scale), 0);
+  if (half_albedo) medium.albedo_grid = 1;
+  MediumRig rig({ramp(texels, length), first_half_albedo(length)}, {medium});
   const auto got = rig.run("spm_flight_test", {0.0f, 0.5f, 0.5f, 0.0f}, {1.0f, 0.0f, 0.0f, length}, step, n);
   std::vector<double> events;
   for (const cl_float4& r : got) {
@@ -211,10 +223,14 @@ RampFlights ramp_flights(float step, uint32_t n) {
 }
 
 TEST(Heterogeneous, DeltaTrackingThroughALinearRampMatchesTheClosedFormCdf) {
+  // With an albedo grid over half the ramp too: where the medium does not
+  // scatter it still absorbs.
   const uint32_t n = 40000;
-  const RampFlights f = ramp_flights(0.0f, n);
-  EXPECT_LT(f.ks, spm::test::ks_critical(n));
-  EXPECT_NEAR(f.escaped, f.escaped_expected, 4.0 * f.escaped_error);
+  for (bool half_albedo : {false, true}) {
+    const RampFlights f = ramp_flights(0.0f, n, half_albedo);
+    EXPECT_LT(f.ks, spm::test::ks_critical(n)) << "albedo grid over half the ramp: " << half_albedo;
+    EXPECT_NEAR(f.escaped, f.escaped_expected, 4.0 * f.escaped_error) << "half albedo grid: " << half_albedo;
+  }
 }
 
 TEST(Heterogeneous, RayMarchingBiasShrinksWithTheStep) {
@@ -301,7 +317,9 @@ TEST(Heterogeneous, RatioTrackingTransmittanceMatchesQuadrature) {
   }
   const uint32_t n = 20000;
   for (const Case& c : cases) {
-    MediumRig rig({c.v}, {grid_medium(factor, 0)});
+    SpmMedium medium = grid_medium(factor, 0);
+    medium.albedo_grid = 1;  // an albedo grid that covers less changes no transmittance
+    MediumRig rig({c.v, first_half_albedo(2.0f)}, {medium});
     const auto ratio = rig.run("spm_transmittance_test", {c.o, c.t0}, {c.d, c.t1}, 0.0f, n);
     const auto marched = rig.run("spm_transmittance_test", {c.o, c.t0}, {c.d, c.t1}, 0.002f, 1);
     for (int k = 0; k < 3; ++k) {

@@ -102,17 +102,19 @@ inline bool clip_unit_cube(float3 p, float3 v, float* t0, float* t1) {
   return enter < leave;
 }
 
-/* The part of [*t0, *t1] of o + t d where medium m can have sigma_t > 0
- * and scatter: inside the cubes of its grids. */
+/* Clips [*t0, *t1] of o + t d to grid gi's unit cube, outside which its
+ * value is 0; gi < 0 (a constant) clips nothing. */
+inline bool grid_clip(const SpmMedia* md, int gi, float3 o, float3 d, float* t0, float* t1) {
+  if (gi < 0) return *t0 < *t1;
+  const __global SpmGridVolume* g = &md->grids[gi];
+  return clip_unit_cube(grid_point(g, o), grid_vector(g, d), t0, t1);
+}
+
+/* The part of [*t0, *t1] of o + t d where medium m can scatter: inside the
+ * cubes of both its grids. Extinction needs only sigma_t's (grid_clip). */
 inline bool medium_clip(const SpmMedia* md, int m, float3 o, float3 d, float* t0, float* t1) {
-  const __global SpmMedium* med = &md->media[m];
-  for (int k = 0; k < 2; ++k) {
-    const int gi = k == 0 ? med->sigma_t_grid : med->albedo_grid;
-    if (gi < 0) continue;
-    const __global SpmGridVolume* g = &md->grids[gi];
-    if (!clip_unit_cube(grid_point(g, o), grid_vector(g, d), t0, t1)) return false;
-  }
-  return *t0 < *t1;
+  return grid_clip(md, md->media[m].sigma_t_grid, o, d, t0, t1) &&
+         grid_clip(md, md->media[m].albedo_grid, o, d, t0, t1);
 }
 
 /* DDA over the majorant cells a local ray crosses (METHOD.md 12). */
@@ -236,7 +238,7 @@ inline bool medium_grey(const SpmMedia* md, int m) {
 inline float heterogeneous_flight(const SpmMedia* md, int m, float3 o, float3 d, float tmax, float step, SpmRng rng,
                                   float3* weight) {
   float t0 = 0.0f, t1 = tmax;
-  if (!medium_clip(md, m, o, d, &t0, &t1)) return SPM_INF;
+  if (!grid_clip(md, md->media[m].sigma_t_grid, o, d, &t0, &t1)) return SPM_INF;
   const bool grey = medium_grey(md, m);
   if (step > 0.0f) {
     for (uint k = 0; k < SPM_MAX_MARCH_STEPS; ++k) {
@@ -282,7 +284,7 @@ inline float3 medium_transmittance(const SpmMedia* md, int m, float3 o, float3 d
   if (m < 0 || !(t1 > t0)) return SPM_F3(1.0f, 1.0f, 1.0f);
   const __global SpmMedium* med = &md->media[m];
   if (med->sigma_t_grid < 0) return exp(-load3(med->sigma_t) * (t1 - t0));
-  if (!medium_clip(md, m, o, d, &t0, &t1)) return SPM_F3(1.0f, 1.0f, 1.0f);
+  if (!grid_clip(md, med->sigma_t_grid, o, d, &t0, &t1)) return SPM_F3(1.0f, 1.0f, 1.0f);
   if (step > 0.0f) {
     float3 tau = SPM_F3(0.0f, 0.0f, 0.0f);
     for (uint k = 0; k < SPM_MAX_MARCH_STEPS; ++k) {
