@@ -108,6 +108,9 @@ def plot_equal_time(rows, path, title):
     ax.loglog([r["spm_seconds"] for r in rows], [r["spm_relmse"] for r in rows], "o-", label="spm (bre)")
     ax.loglog([r["mitsuba_seconds"] for r in rows], [r["mitsuba_relmse"] for r in rows], "s--",
               label="Mitsuba volpath")
+    # Label the budgets, not the log axis's minor ticks, which overlap.
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xticks([r["budget"] for r in rows], [f'{r["budget"]:g}' for r in rows])
     ax.set_xlabel("seconds")
     ax.set_ylabel("relMSE vs reference")
     ax.grid(True, which="both", alpha=0.3)

@@ -15,6 +15,9 @@ packages=(
   openmpi-bin libopenmpi-dev
   clang-14 libclang-rt-14-dev
   python3 python3-jsonschema
+  # The Mitsuba 3 judge in tools/ (reference.py, convergence.py): its venv, and
+  # an LLVM new enough for Dr.Jit's llvm_ad_rgb (Debian 12's default 15 is not).
+  python3-venv libllvm19
 )
 
 missing=()

@@ -13,8 +13,11 @@ The project's scenes are Mitsuba 3 XML (shared/design/SCENES.md), so Mitsuba
      original file's lines;
   3. applies the scene's $ default overrides (-D name=value);
   4. renders with the llvm_ad_rgb variant when Dr.Jit's LLVM backend runs here
-     (it needs a system libLLVM: Debian's libllvm15, which pocl-opencl-icd
-     already pulls in), else scalar_rgb;
+     (it needs a system libLLVM recent enough for the code it generates:
+     Debian 12's libllvm19, which tools/install-deps.sh installs and
+     DRJIT_LIBLLVM_PATH is pointed at unless already set; with the
+     libllvm15 that pocl-opencl-icd pulls in, scenes with spheres abort),
+     else scalar_rgb;
   5. writes a 32-bit float RGB OpenEXR and a JSON record beside it (command,
      Mitsuba version, variant, spp, wall time, SHA-256 of the EXR).
 
@@ -83,11 +86,30 @@ def ensure_venv(build_dir: Path, requirements=VENV_REQUIREMENTS, quiet=False) ->
     return python
 
 
+def select_libllvm() -> None:
+    """Points DRJIT_LIBLLVM_PATH at the newest system libLLVM-N.so, N >= 16,
+    unless the caller chose one. Dr.Jit otherwise loads plain libLLVM.so,
+    which on Debian 12 is LLVM 15: it cannot select the fminimum that
+    Mitsuba's sphere and bounding-box code emits, and the render aborts, so
+    the judge falls back to the much slower scalar_rgb."""
+    if os.environ.get("DRJIT_LIBLLVM_PATH"):
+        return
+    found = []
+    for d in ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib"):
+        for f in Path(d).glob("libLLVM-*.so") if Path(d).is_dir() else []:
+            m = re.fullmatch(r"libLLVM-(\d+)\.so", f.name)
+            if m and int(m.group(1)) >= 16:
+                found.append((int(m.group(1)), str(f)))
+    if found:
+        os.environ["DRJIT_LIBLLVM_PATH"] = max(found)[1]
+
+
 def reexec_in_venv(script: str) -> None:
     """Runs `script` again with the venv's python (under --build-dir) unless
     this is it or only help was asked for, which needs no venv."""
     if "-h" in sys.argv or "--help" in sys.argv:
         return
+    select_libllvm()
     build_dir = pre_parse_build_dir(sys.argv[1:])
     venv = venv_dir(build_dir)
     if in_venv(venv):
