@@ -305,6 +305,38 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
   return li;
 }
 
+/* The surface estimate a pixel's samples share (one per work-item). A
+ * sample whose diffuse vertex lies within SPM_REUSE_DISTANCE r of the point
+ * the last estimate was made at, on a surface facing the same way, with the
+ * same record depth limit, reads that estimate instead of summing the disk
+ * again: the disk of radius r is far larger than the pixel's footprint once
+ * r spans several pixels (Fig. 3 (b): a pixel is 0.16 r), so the estimates
+ * at the pixel's samples differ by the few records at the disks' rims, and
+ * the pixel's mean is the estimate of a kernel of radius at most
+ * (1 + SPM_REUSE_DISTANCE) r centred in the pixel. The reach scales with r,
+ * so as the passes shrink r below a few pixels the reuse stops and the
+ * estimate stays consistent (METHOD.md 5). */
+#define SPM_REUSE_DISTANCE 0.25f
+#define SPM_REUSE_COS 0.999f
+
+typedef struct SpmSurfaceReuse {
+  float3 p, n, flux;
+  uint depth_limit; /* SPM_NONE - 1 marks an empty entry: no path uses it */
+} SpmSurfaceReuse;
+
+inline float3 pixel_surface_estimate(SpmSurfaceReuse* reuse, const SpmGrid* grid, const __global float4* item_flux,
+                                     float3 x, float3 n, float r, uint density_kernel, uint depth_limit) {
+  const float3 off = x - reuse->p;
+  const float reach = SPM_REUSE_DISTANCE * r;
+  if (reuse->depth_limit == depth_limit && dot(off, off) < reach * reach && dot(n, reuse->n) > SPM_REUSE_COS)
+    return reuse->flux;
+  reuse->p = x;
+  reuse->n = n;
+  reuse->depth_limit = depth_limit;
+  reuse->flux = surface_estimate(grid, item_flux, x, n, r, density_kernel, depth_limit);
+  return reuse->flux;
+}
+
 /* Specular vertices a camera path follows at most: a safety cap, so that
  * the vertices of a sample (null crossings included, at most 4 per specular
  * one) fit the block of 256 RNG events each sample has. */
@@ -326,7 +358,7 @@ inline bool within_depth(uint segments, uint max_depth) { return max_depth == SP
  * specular + 1 segments, direct light at the diffuse vertex that ends the
  * chain specular + 2. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
-                       float tmin, float tmax, uint max_depth, SpmRng rng, uint* tests) {
+                       float tmin, float tmax, uint max_depth, SpmRng rng, SpmSurfaceReuse* reuse, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
   int medium = cam->medium;
@@ -377,15 +409,15 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         if (maps->final_gather) {
           /* The gather ray's records lie one vertex further from the camera. */
           const uint gather_limit = depth_limit == SPM_NONE ? SPM_NONE : (depth_limit > 0u ? depth_limit - 1u : 0u);
-          const float3 caustic = surface_estimate(&maps->caustic_grid, maps->caustic_flux, surf.p,
-                                                  facing_normal(&surf, d), maps->radius, maps->density_kernel,
-                                                  depth_limit);
+          const float3 caustic = pixel_surface_estimate(reuse, &maps->caustic_grid, maps->caustic_flux, surf.p,
+                                                        facing_normal(&surf, d), maps->radius, maps->density_kernel,
+                                                        depth_limit);
           L += beta * load3(m->reflectance) *
                (SPM_INV_PI * caustic + final_gather(s, maps, &surf, d, medium, gather_limit, rng, tests));
         } else {
-          const float3 flux = surface_estimate(&maps->surface_grid, maps->surface_flux, surf.p,
-                                               facing_normal(&surf, d), maps->radius, maps->density_kernel,
-                                               depth_limit);
+          const float3 flux = pixel_surface_estimate(reuse, &maps->surface_grid, maps->surface_flux, surf.p,
+                                                     facing_normal(&surf, d), maps->radius, maps->density_kernel,
+                                                     depth_limit);
           L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
         }
       }
@@ -436,6 +468,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   const uint px = pixel % camera->width;
   const uint py = pixel / camera->width;
   float3 sum = (float3)(0.0f);
+  SpmSurfaceReuse reuse;
+  reuse.p = reuse.n = reuse.flux = (float3)(0.0f);
+  reuse.depth_limit = SPM_NONE - 1u;
   for (uint i = 0; i < params.spp; ++i) {
     /* Event index: a block of 256 per sample, one per path vertex. */
     SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);
@@ -444,7 +479,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
     float3 o;
     float tmin, tmax;
     const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
-    sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, rng, &tests);
+    sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, rng, &reuse, &tests);
   }
   /* A NaN or infinity is a bug to find, not a value to clamp: the host fails
    * the render when this bit is set. */
