@@ -16,7 +16,7 @@ namespace spm {
 // Edge of the surface map's point grid cells, in gather radii. A query
 // examines about (2 + kSurfaceCell)^2 r^2 of surface for the pi r^2 it uses
 // and reads the bounds of up to (2 / kSurfaceCell + 1)^2 rows of cells.
-inline constexpr float kSurfaceCell = 0.5f;
+inline constexpr float kSurfaceCell = 1.0f;
 
 // Edge of the stream beams' capsule grid cells, in beam radii: a ray
 // examines the beams of the cells it crosses, which lie within about
