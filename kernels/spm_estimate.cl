@@ -2,7 +2,9 @@
  * that they can be compared with a brute-force sum on the host.
  * spm_beam_test: one work-item per ray segment (origin xyz + t0, direction
  * xyz + t1); spm_stream_beam_test likewise over stream beams.
- * spm_surface_test: one per query point (xyz) with normal (xyz). */
+ * spm_surface_test: one per query point (xyz) with normal (xyz).
+ * spm_shared_surface_test: one work-item through all the queries in order,
+ * as a pixel's samples are, each with its own record depth limit. */
 #include "spm_types.h"
 #include "lib/estimate.h"
 
@@ -50,4 +52,19 @@ __kernel void spm_surface_test(const __global SpmGridInfo* info, const __global 
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   out[i] = (float4)(
       surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, density_kernel, max_rec_depth), 0.0f);
+}
+
+__kernel void spm_shared_surface_test(const __global SpmGridInfo* info, const __global uint* cell_start,
+                                      const __global float4* item_pos, const __global float4* item_flux,
+                                      const __global float4* points, const __global float4* normals,
+                                      const __global uint* depth_limits, __global float4* out, uint count,
+                                      float radius, uint density_kernel) {
+  if (get_global_id(0) != 0) return;
+  const SpmGrid grid = make_grid(info, cell_start, item_pos);
+  SpmSurfaceReuse reuse = surface_reuse_empty();
+  for (uint i = 0; i < count; ++i) {
+    out[i] = (float4)(pixel_surface_estimate(&reuse, &grid, item_flux, points[i].xyz, normals[i].xyz, radius,
+                                             density_kernel, depth_limits[i]),
+                      0.0f);
+  }
 }

@@ -305,38 +305,6 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
   return li;
 }
 
-/* The surface estimate a pixel's samples share (one per work-item). A
- * sample whose diffuse vertex lies within SPM_REUSE_DISTANCE r of the point
- * the last estimate was made at, on a surface facing the same way, with the
- * same record depth limit, reads that estimate instead of summing the disk
- * again: the disk of radius r is far larger than the pixel's footprint once
- * r spans several pixels (Fig. 3 (b): a pixel is 0.16 r), so the estimates
- * at the pixel's samples differ by the few records at the disks' rims, and
- * the pixel's mean is the estimate of a kernel of radius at most
- * (1 + SPM_REUSE_DISTANCE) r centred in the pixel. The reach scales with r,
- * so as the passes shrink r below a few pixels the reuse stops and the
- * estimate stays consistent (METHOD.md 5). */
-#define SPM_REUSE_DISTANCE 0.25f
-#define SPM_REUSE_COS 0.999f
-
-typedef struct SpmSurfaceReuse {
-  float3 p, n, flux;
-  uint depth_limit; /* SPM_NONE - 1 marks an empty entry: no path uses it */
-} SpmSurfaceReuse;
-
-inline float3 pixel_surface_estimate(SpmSurfaceReuse* reuse, const SpmGrid* grid, const __global float4* item_flux,
-                                     float3 x, float3 n, float r, uint density_kernel, uint depth_limit) {
-  const float3 off = x - reuse->p;
-  const float reach = SPM_REUSE_DISTANCE * r;
-  if (reuse->depth_limit == depth_limit && dot(off, off) < reach * reach && dot(n, reuse->n) > SPM_REUSE_COS)
-    return reuse->flux;
-  reuse->p = x;
-  reuse->n = n;
-  reuse->depth_limit = depth_limit;
-  reuse->flux = surface_estimate(grid, item_flux, x, n, r, density_kernel, depth_limit);
-  return reuse->flux;
-}
-
 /* Specular vertices a camera path follows at most: a safety cap, so that
  * the vertices of a sample (null crossings included, at most 4 per specular
  * one) fit the block of 256 RNG events each sample has. */
@@ -468,9 +436,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   const uint px = pixel % camera->width;
   const uint py = pixel / camera->width;
   float3 sum = (float3)(0.0f);
-  SpmSurfaceReuse reuse;
-  reuse.p = reuse.n = reuse.flux = (float3)(0.0f);
-  reuse.depth_limit = SPM_NONE - 1u;
+  SpmSurfaceReuse reuse = surface_reuse_empty();
   for (uint i = 0; i < params.spp; ++i) {
     /* Event index: a block of 256 per sample, one per path vertex. */
     SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);

@@ -228,6 +228,84 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   }
 }
 
+// A pixel's samples share a surface estimate (pixel_surface_estimate): a
+// query within 0.25 r of the last estimate's point, facing the same way,
+// with the same depth limit, reads it; any other query sums its own disk.
+TEST(SurfaceEstimate, APixelsSamplesShareOnlyANearbyEstimate) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<SpmSurfaceRecord> records(20000);
+  for (auto& r : records) {
+    r.position[0] = 20 * u(rng);
+    r.position[2] = 20 * u(rng);
+    r.normal[1] = 1.0f;
+    for (int c = 0; c < 3; ++c) r.flux[c] = u(rng);
+    r.flags = SPM_RECORD_HAD_EVENT;
+    r.depth_photon = (1u + rng() % 6) << 16;
+  }
+  const float radius = 1.0f;
+  const int kernel = 1;  // Epanechnikov: the estimate moves with the query's point and normal
+  const auto brute = [&](const dvec3& x, const dvec3& n, uint32_t max_depth) {
+    dvec3 sum(0.0);
+    for (const auto& r : records) {
+      if ((r.depth_photon >> 16) > max_depth || glm::dot(v3(r.normal), n) <= 0) continue;
+      const dvec3 off = v3(r.position) - x;
+      const double h = glm::dot(off, n), d3 = glm::dot(off, off);
+      if (d3 >= radius * radius || std::abs(h) > 0.1 * radius) continue;
+      sum += kernel_2d(kernel, d3 - h * h, radius * radius) * v3(r.flux);
+    }
+    return sum;
+  };
+  const dvec3 up(0, 1, 0), tilted(std::sin(0.5236), std::cos(0.5236), 0);  // 30 degrees
+  const dvec3 x0(10, 0, 10), x1 = x0 + dvec3(0.2, 0, 0.1), x2 = x0 + dvec3(0.3, 0, 0.05), x5 = x2 + dvec3(0, 0, 0.1);
+  struct Query {
+    dvec3 x, n;
+    uint32_t limit;
+    int shares;  // the query whose estimate this one reads; -1: its own
+  };
+  const std::vector<Query> q = {{x0, up, SPM_NONE, -1}, {x1, up, SPM_NONE, 0},   // 0.22 r away: shared
+                                {x2, up, SPM_NONE, -1},                          // 0.3 r from x0
+                                {x2, tilted, SPM_NONE, -1},                      // facing another way
+                                {x2, tilted, 3u, -1},                            // another depth limit
+                                {x5, tilted, 3u, 4}};                            // 0.1 r away: shared
+  std::vector<cl_float4> points, normals;
+  std::vector<cl_uint> limits;
+  for (const auto& e : q) {
+    points.push_back(cl_float4{{float(e.x.x), float(e.x.y), float(e.x.z), 0.0f}});
+    normals.push_back(cl_float4{{float(e.n.x), float(e.n.y), float(e.n.z), 0.0f}});
+    limits.push_back(e.limit);
+  }
+  auto& dev = spm::test::device();
+  const auto used = spm::used_surface_records(records, false);
+  const spm::RecordGrid grid = spm::surface_grid(used, radius);
+  const SurfaceBuffers up_buf = upload(dev, used, grid);
+  const int n = int(q.size());
+  const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals),
+                   lb = dev.upload("depth_limits", limits);
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_surface_test");
+  spm::set_args(k, spm::arg("info", up_buf.info), spm::arg("cell_start", up_buf.start), spm::arg("item_pos", up_buf.pos),
+                spm::arg("item_flux", up_buf.flux), spm::arg("points", pb), spm::arg("normals", nb),
+                spm::arg("depth_limits", lb), spm::arg("out", out), spm::arg("count", cl_uint(n)),
+                spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
+  dev.launch(k, 1);
+  const auto got = dev.download<cl_float4>(out, n);
+  for (int i = 0; i < n; ++i) {
+    const dvec3 own = brute(q[i].x, q[i].n, q[i].limit);
+    for (int c = 0; c < 3; ++c) {
+      if (q[i].shares < 0) {
+        EXPECT_NEAR(got[i].s[c], own[c], 1e-4 * own[c] + 1e-9) << "query " << i << " sums its own disk";
+      } else {
+        EXPECT_EQ(got[i].s[c], got[q[i].shares].s[c]) << "query " << i << " reads query " << q[i].shares << "'s";
+        // Its own disk would have given another value: the sharing is seen.
+        EXPECT_GT(std::abs(own[c] - got[i].s[c]), 1e-3 * own[c]) << "query " << i;
+      }
+    }
+  }
+  // Each query that sums its own disk differs from the one before it.
+  for (int i : {2, 3, 4}) EXPECT_GT(std::abs(got[i].s[0] - got[i - 1].s[0]), 1e-3 * got[i].s[0]) << i;
+}
+
 // A grazing stream's photons can land on their tangent plane far outside
 // the scene (METHOD.md 1); the grid leaves out those beyond the scene's
 // bounds grown by r, which no query can reach, and keeps the rest.
