@@ -304,6 +304,27 @@ TEST_F(TimeBudget, PassesEndWithinTheBudget) {
   EXPECT_NEAR(image_mean(timed), m.mean, 5 * std::sqrt(7.0) * m.error);
 }
 
+// A timed render's next pass gets the samples that put its gather at 2/3 of
+// the pass (README "Passes balanced for error per second"), as long as the
+// pass stays within a tenth of the budget, 1 to 64.
+TEST(BalancedSpp, PutsTheGatherAtTwoThirdsOfThePass) {
+  // Photons 0.1 s, a sample 0.05 s: 4 samples make the gather 0.2 of 0.3 s.
+  EXPECT_EQ(spm::balanced_spp(0.1, 0.05, 1, 100.0), 4);
+  EXPECT_EQ(spm::balanced_spp(0.1, 0.4, 8, 100.0), 4);  // the same costs measured at 8 samples
+  for (double photons : {0.01, 0.3, 2.0}) {
+    for (double sample : {0.001, 0.01, 0.05}) {
+      const int n = spm::balanced_spp(photons, sample * 3, 3, 1e6);
+      const double share = n * sample / (photons + n * sample);
+      if (n > 1 && n < 64) EXPECT_NEAR(share, 2.0 / 3.0, 0.5 * sample / (photons + n * sample)) << photons << " " << sample;
+    }
+  }
+  EXPECT_EQ(spm::balanced_spp(1.0, 0.001, 1, 1e6), 64);  // at most 64
+  // Within a tenth of the budget: 0.1 s of photons leave 0.1 s of a 2 s budget's 0.2 for samples of 0.05 s.
+  EXPECT_EQ(spm::balanced_spp(0.1, 0.05, 1, 2.0), 2);
+  EXPECT_EQ(spm::balanced_spp(0.5, 0.05, 1, 2.0), 1);  // at least 1, even when the photons alone overrun
+  EXPECT_EQ(spm::balanced_spp(0.1, 0.0, 7, 100.0), 7);  // nothing measured: unchanged
+}
+
 TEST_F(TimeBudget, HoldsWithTwoDevices) {
   // Each device starts a pass only when it still fits its own clock.
   const auto r = run("render " + kFogBox + " -o " + path("t.exr") + " -D res=32 --device all --time 2 --profile-json " +

@@ -66,6 +66,7 @@ void Profiler::add_pass(int device, int pass, const PassCounters& c) {
                      {"live_per_iteration", c.live},
                      {"volume_records", c.volume_records},
                      {"surface_records", c.surface_records},
+                     {"camera_samples", c.camera_samples},
                      {"map_parts", c.map_parts},
                      {"host_parts", c.host_parts}});
 }

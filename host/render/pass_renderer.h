@@ -30,6 +30,9 @@ class PassRenderer {
   // Renders pass `pass`; host stages go to `profiler` (if any) on `track`.
   PassOutput render(int pass, Profiler* profiler, int track);
 
+  // Camera samples per pixel of the passes rendered from now on.
+  void set_spp(int spp) { settings_.spp = spp; }
+
  private:
   // Where the host stages of a pass go, and their clock.
   struct Stages {

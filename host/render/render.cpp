@@ -38,7 +38,10 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   check(in.time >= 0.0f && std::isfinite(in.time), "the time budget must not be negative (--time)");
   if (s.spp < 0 || s.spp > 1 << 20) throw InputError("--spp", "samples per pixel must be in 1 .. 1048576");
   if (s.passes < 0) throw InputError("--passes", "the number of passes must be at least 1");
-  if (s.spp == 0) s.spp = samples_per_pass(scene, s.width, s.height);
+  if (s.spp == 0) {
+    s.spp = samples_per_pass(scene, s.width, s.height);
+    s.spp_derived = true;
+  }
   // A render for a time budget (integrator `time`, no pass count) keeps
   // passes = 0: it renders passes until the budget is spent. Without a pass
   // count or a budget, the sampler's sample_count is the render's total
@@ -123,7 +126,22 @@ namespace {
 // not fit (judged by the longest so far) is never started.
 constexpr double kPassShareOfBudget = 0.1;
 
+// The gather's share of a pass at which the error at equal time was lowest
+// (tools/pass_balance.py, README "Passes balanced for error per second":
+// 2/3 to 3/4 on fog_box and cornell_fog alike).
+constexpr double kGatherShare = 2.0 / 3.0;
+
 }  // namespace
+
+int balanced_spp(double photon_seconds, double gather_seconds, int spp, double budget) {
+  const double photons = photon_seconds;
+  const double per_sample = gather_seconds / std::max(1, spp);
+  if (!(per_sample > 0.0) || !(photons > 0.0)) return spp;
+  double want = kGatherShare / (1.0 - kGatherShare) * photons / per_sample;
+  // The pass must still fit its share of the budget.
+  want = std::min(want, (kPassShareOfBudget * budget - photons) / per_sample);
+  return static_cast<int>(std::clamp(std::lround(want), 1L, 64L));
+}
 
 double first_pass_estimate(const Scene& scene, double pilot_seconds) {
   return 3.0 * pilot_seconds * (1.0 + derived_associated(scene.integrator) / 8.0);
@@ -199,6 +217,12 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
       // far (at first the pilot's estimate), still fits the budget; device 0
       // renders one pass in any case.
       double elapsed = 0.0, longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * in.time);
+      // A timed render with derived samples per pass balances them from each
+      // pass's own stage times (balanced_spp); their count then depends on
+      // timing, as the number of passes already does.
+      const bool balance = timed && s.spp_derived;
+      int spp = s.spp;
+      double photon_seconds = 0.0, gather_seconds = 0.0, samples = 0.0;
       for (int done = 0;; ++done) {
         if (stopping()) break;
         if (timed && (d > 0 || done > 0) && elapsed + longest > in.time) break;
@@ -217,6 +241,18 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         const double took = busy.lap();
         elapsed += clock.lap();
         longest = std::max(longest, took);
+        if (balance) {
+          // From the means over this device's passes so far, steadier than one pass.
+          photon_seconds += out.propagate_seconds + out.grid_seconds;
+          gather_seconds += out.gather_seconds;
+          samples += spp;
+          const int next_spp =
+              balanced_spp(photon_seconds / (done + 1), gather_seconds * spp / samples, spp, in.time);
+          // The next pass is judged by its predicted length when that is longer.
+          longest = std::max(longest, took + out.gather_seconds * (double(next_spp) / spp - 1.0));
+          spp = next_spp;
+          renderer.set_spp(spp);
+        }
         std::lock_guard<std::mutex> lock(mutex);
         st.devices[d].passes += 1;
         st.devices[d].busy_seconds += took;
