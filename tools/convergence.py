@@ -69,6 +69,19 @@ def run_spm(spm, scene, out, res, passes, estimator, seed, defines, extra, log, 
     return {"passes": done, "seconds": seconds, "wall": wall, "command": " ".join(cmd)}
 
 
+def add_spm_arguments(p, defines_help):
+    """The arguments every tool comparing spm with a reference takes: the
+    scene, the reference, where the build is, and what to pass to spm."""
+    p.add_argument("scene", type=Path)
+    p.add_argument("--reference", type=Path, required=True, help="reference EXR (tools/reference.py)")
+    p.add_argument("--build-dir", type=Path, default=reference.default_build_dir(),
+                   help="build directory: venv-mitsuba and the default spm (default: %(default)s)")
+    p.add_argument("--spm", type=Path, default=None, help="spm executable (default: BUILD/spm)")
+    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE", help=defines_help)
+    p.add_argument("--spm-arg", action="append", default=[], metavar="ARG",
+                   help="extra argument for spm render (repeatable, e.g. --spm-arg=--streams=20000)")
+
+
 def write_csv(path, rows, fields):
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
@@ -127,21 +140,13 @@ def main() -> int:
                                 "counts (both estimators), and spm vs Mitsuba volpath at equal time.",
                                 epilog="Example:" + __doc__.split("Example:")[1],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scene", type=Path)
-    p.add_argument("--reference", type=Path, required=True, help="reference EXR (tools/reference.py)")
-    p.add_argument("--build-dir", type=Path, default=reference.default_build_dir(),
-                   help="build directory: venv-mitsuba, and the default spm and --out (default: %(default)s)")
-    p.add_argument("--spm", type=Path, default=None, help="spm executable (default: BUILD/spm)")
+    add_spm_arguments(p, "scene default overrides for both renderers (repeatable)")
     p.add_argument("--out", type=Path, default=None, help="output directory (default: BUILD/convergence/SCENE)")
     p.add_argument("--passes", default="1,2,4,8,16,32", help="pass counts of the sweep (default %(default)s)")
     p.add_argument("--estimators", default="bre,paper", help="estimators of the sweep (default %(default)s)")
     p.add_argument("--budgets", default="2,5,10,20",
                    help="equal-time budgets in seconds; empty: no equal-time comparison (default %(default)s)")
     p.add_argument("--seed", type=int, default=1, help="spm seed, and Mitsuba's base seed + 1000 (default 1)")
-    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
-                   help="scene default overrides for both renderers (repeatable)")
-    p.add_argument("--spm-arg", action="append", default=[], metavar="ARG",
-                   help="extra argument for spm render (repeatable, e.g. --spm-arg=--streams=20000)")
     p.add_argument("--max-depth", type=int, default=64, help="Mitsuba volpath max_depth (default 64)")
     p.add_argument("--summary-dir", type=Path, default=None,
                    help="also copy the plots and the markdown table here as SCENE_*.png / SCENE_*.md")

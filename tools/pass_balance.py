@@ -6,10 +6,10 @@ over the camera samples per pass (--spp) and the photon streams per pass.
 Every configuration renders with spm's own time budget (`--time B`: its
 passes end within B), so a configuration with cheaper passes gets more of
 them. Beside each run's relMSE the tool records, from `--profile-json`,
-the share of the pass's time its gather took: the rule the defaults follow
-(host/render/defaults.h, samples_per_pass) is stated in that share, which
-carries over to other resolutions and devices where a fixed sample count
-would not.
+the share of the pass's time its gather took: the rule timed renders
+follow (host/render/render.cpp, balanced_spp) is stated in that share,
+which carries over to other resolutions and devices where a fixed sample
+count would not.
 
 Writes BALANCE.csv, a markdown table and a plot (relMSE against the
 gather's share of the pass, one curve per stream count) to --out.
@@ -25,25 +25,21 @@ import csv
 import json
 import os
 import statistics
-import subprocess
 import sys
 from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import convergence  # noqa: E402
 import reference  # noqa: E402
 
 
-def run(spm, scene, out, args, spp, streams, seed):
+def run(spm, out, args, res, spp, streams, seed):
+    """One render for the budget (convergence.run_spm), and its share of
+    the gather from the profile."""
     prof = out.with_suffix(".json")
-    cmd = [str(spm), "render", str(scene), "-o", str(out), "--png", str(out.with_suffix(".png")),
-           "--time", f"{args.budget:g}", "--spp", str(spp), "--streams", str(streams), "--seed", str(seed),
-           "--profile-json", str(prof)]
-    for d in args.defines:
-        cmd += ["-D", d]
-    cmd += args.spm_arg
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise SystemExit(f"pass_balance: {' '.join(cmd)} failed ({p.returncode}):\n{p.stderr}")
+    extra = ["--spp", str(spp), "--streams", str(streams), "--profile-json", str(prof)] + args.spm_arg
+    convergence.run_spm(spm, args.scene, out, res, 0, "bre", seed, args.defines, extra, lambda *a: None,
+                        budget=args.budget)
     j = json.loads(prof.read_text())
     h = j["host"]
     busy = h["propagate_s"] + h["grid_s"] + h["gather_s"]
@@ -80,31 +76,25 @@ def plot(rows, path, title):
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("scene", type=Path)
-    p.add_argument("--reference", type=Path, required=True, help="reference EXR (tools/reference.py)")
-    p.add_argument("--build-dir", type=Path, default=reference.default_build_dir(),
-                   help="build directory: venv-mitsuba and the default spm (default: %(default)s)")
-    p.add_argument("--spm", type=Path, default=None, help="spm executable (default: BUILD/spm)")
+    convergence.add_spm_arguments(p, "scene default override, passed to spm (repeatable)")
     p.add_argument("--out", type=Path, required=True, help="output directory")
     p.add_argument("--budget", type=float, default=10.0, help="seconds per render (default %(default)s)")
     p.add_argument("--spp", default="1,2,4,8,16", help="camera samples per pass (default %(default)s)")
     p.add_argument("--streams", default="10000", help="photon streams per pass (default %(default)s)")
     p.add_argument("--seeds", default="1,2", help="seeds; the table gives the median (default %(default)s)")
-    p.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
-                   help="scene default override, passed to spm")
-    p.add_argument("--spm-arg", action="append", default=[], metavar="ARG", help="extra spm argument")
     args = p.parse_args()
     import compare
     spm = args.spm or args.build_dir / "spm"
     args.out.mkdir(parents=True, exist_ok=True)
     ref = compare.load_exr(args.reference)
+    res = (ref.shape[1], ref.shape[0])
     rows = []
     for streams in [int(x) for x in args.streams.split(",")]:
         for spp in [int(x) for x in args.spp.split(",")]:
             runs = []
             for seed in [int(x) for x in args.seeds.split(",")]:
                 out = args.out / f"s{streams}_spp{spp}_seed{seed}.exr"
-                r = run(spm, args.scene, out, args, spp, streams, seed)
+                r = run(spm, out, args, res, spp, streams, seed)
                 r["relmse"] = compare.metrics(compare.load_exr(out), ref)["relmse"]
                 runs.append(r)
                 out.unlink()
