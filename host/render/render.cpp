@@ -134,12 +134,11 @@ constexpr double kGatherShare = 2.0 / 3.0;
 }  // namespace
 
 int balanced_spp(double photon_seconds, double gather_seconds, int spp, double budget) {
-  const double photons = photon_seconds;
   const double per_sample = gather_seconds / std::max(1, spp);
-  if (!(per_sample > 0.0) || !(photons > 0.0)) return spp;
-  double want = kGatherShare / (1.0 - kGatherShare) * photons / per_sample;
+  if (!(per_sample > 0.0) || !(photon_seconds > 0.0)) return spp;
+  double want = kGatherShare / (1.0 - kGatherShare) * photon_seconds / per_sample;
   // The pass must still fit its share of the budget.
-  want = std::min(want, (kPassShareOfBudget * budget - photons) / per_sample);
+  want = std::min(want, (kPassShareOfBudget * budget - photon_seconds) / per_sample);
   return static_cast<int>(std::clamp(std::lround(want), 1L, 64L));
 }
 
@@ -217,9 +216,9 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
       // far (at first the pilot's estimate), still fits the budget; device 0
       // renders one pass in any case.
       double elapsed = 0.0, longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * in.time);
-      // A timed render with derived samples per pass balances them from each
-      // pass's own stage times (balanced_spp); their count then depends on
-      // timing, as the number of passes already does.
+      // A timed render with derived samples per pass balances them from the
+      // stage times of its passes so far (balanced_spp); their count then
+      // depends on timing, as the number of passes already does.
       const bool balance = timed && s.spp_derived;
       int spp = s.spp;
       double photon_seconds = 0.0, gather_seconds = 0.0, samples = 0.0;

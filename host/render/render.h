@@ -33,7 +33,7 @@ struct RenderSettings {
   // Camera samples per pixel in each pass; 0: samples_per_pass (defaults.h).
   int spp = 0;
   // Set by resolve_settings when it derived spp: a timed render then
-  // balances each pass's samples from the last pass's times (balanced_spp).
+  // balances each pass's samples from its passes' times (balanced_spp).
   bool spp_derived = false;
   // 0: the integrator's `passes`, or as many as its `time` allows, or enough
   // passes of `spp` for the sampler's sample_count (SCENES.md).
@@ -92,10 +92,10 @@ StreamSettings stream_settings(const Scene& scene, const RenderSettings& setting
 // gather takes about twice the propagation here.
 double first_pass_estimate(const Scene& scene, double pilot_seconds);
 
-// Camera samples per pixel for a timed render's next pass, from the last
-// pass's photon stages (propagate and grid build) and gather, which took
-// `spp` samples: the gather's share of the pass at the measured optimum
-// (2/3), within the pass's share of the budget, 1 to 64.
+// Camera samples per pixel for a timed render's next pass, from a pass's
+// photon stages (propagate and grid build) and gather seconds, the gather
+// measured at `spp` samples: the gather's share of the pass at the
+// measured optimum (2/3), within the pass's share of the budget, 1 to 64.
 int balanced_spp(double photon_seconds, double gather_seconds, int spp, double budget);
 
 // A timed render (settings.passes 0) whose pass would take more than a tenth
