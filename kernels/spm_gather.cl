@@ -25,6 +25,9 @@ typedef struct SpmMaps {
   SpmGrid volume_grid;
   const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
+  SpmGrid outer_grid; /* the volume records outside the query bounds (map_grids.h) */
+  const __global uint* outer_items;
+  const __global SpmVolumeRecord* outer;
   const __global SpmGridInfo* beam_info;
   const __global uint* beam_start;
   const __global uint* beam_items;
@@ -196,6 +199,17 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
          arrival / pdf;
 }
 
+/* The beam radiance estimate over the volume records along [t0, t1]: the
+ * records near the scene and those beyond it are in two grids, each record
+ * in one (host/spm/map_grids.h), so the estimate is the sum of both. */
+inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
+                               float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab, uint* tests) {
+  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d, t0, t1,
+                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests) +
+         beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, medium, o, d, t0, t1,
+                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
+}
+
 /* The volume estimate (records or stream beams) along [t0, t1] in a
  * heterogeneous medium: in pieces of SPM_TABLE_KNOTS knots, each with the
  * table of optical depth and albedo that all its records or beams read
@@ -228,9 +242,7 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
                                               s->md.media, medium, o, d, ta, tb, maps->beam_radius,
                                               maps->density_kernel, min_depth, max_depth, &tab, tests);
     } else {
-      sum += exp(-tau) * beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d,
-                                       ta, tb, maps->radius, maps->density_kernel, maps->estimator, min_depth,
-                                       max_depth, &tab, tests);
+      sum += exp(-tau) * records_estimate(s, maps, medium, o, d, ta, tb, min_depth, max_depth, &tab, tests);
     }
     float3 albedo;
     tau += medium_table_depth(&tab, tb, &albedo);
@@ -254,8 +266,7 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
                                 d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth,
                                 &homogeneous, tests);
   }
-  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d, t0, t1,
-                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, &homogeneous, tests);
+  return records_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
 }
 
 /* Indirect light reflected towards the camera at a diffuse vertex, by one
@@ -416,6 +427,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.volume_grid = make_grid(volume_info, volume_start, volume_pos);
   maps.volume_items = volume_items;
   maps.volume = volume;
+  maps.outer_grid = make_grid(outer_info, outer_start, outer_pos);
+  maps.outer_items = outer_items;
+  maps.outer = outer;
   maps.beam_info = beam_info;
   maps.beam_start = beam_start;
   maps.beam_items = beam_items;

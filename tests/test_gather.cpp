@@ -159,6 +159,102 @@ INSTANTIATE_TEST_SUITE_P(KernelsAndEstimators, BeamEstimate,
                          ::testing::Combine(::testing::Values(0, 1), ::testing::Values(0, 1),
                                             ::testing::Values(SPM_NONE, 3u)));
 
+// A fog that fills all space spreads its records far beyond the scene: a
+// single grid over all of them, capped in cells, would have cells far wider
+// than 2r. map_grid_data puts the records outside the query bounds in a
+// grid of their own; the two estimates together must equal the brute-force
+// sum over every record, for rays that start in the scene and run far out.
+TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> core(-1.0f, 1.0f), far(-300.0f, 300.0f), flux(0.0f, 2.0f);
+  const SpmMedium medium = spm::test::coloured_medium();
+  std::vector<SpmVolumeRecord> records(30000);
+  for (size_t i = 0; i < records.size(); ++i) {
+    SpmVolumeRecord& r = records[i];
+    for (int c = 0; c < 3; ++c) {
+      // A quarter far out: half of those in a cloud 150 away, which the
+      // long rays below aim at, the rest scattered.
+      r.position[c] = i % 4 != 0 ? core(rng) : i % 8 == 0 ? far(rng) : (c == 0 ? 150.0f : 0.0f) + core(rng);
+      r.flux[c] = flux(rng);
+    }
+    const glm::vec3 d = glm::normalize(glm::vec3(core(rng), core(rng), core(rng)) + glm::vec3(1e-3f));
+    for (int c = 0; c < 3; ++c) r.direction[c] = d[c];
+    r.medium = 0;
+    r.depth = 2;
+  }
+  const float radius = 0.05f;
+  spm::QueryBounds reach;
+  reach.lo = glm::vec3(-1.0f - radius);
+  reach.hi = glm::vec3(1.0f + radius);
+  spm::MapParts parts;
+  parts.volume = records;
+  const spm::MapGridData data = spm::map_grid_data(parts, radius, radius, false, false, reach);
+  ASSERT_EQ(data.volume_records.size() + data.outer_records.size(), records.size());
+  // The core: the bounds grown to cbrt(30,000) = 31 cells of 2r, +-1.55.
+  const spm::QueryBounds fine = spm::volume_core(reach, records.size(), radius);
+  EXPECT_NEAR(fine.hi.x, 0.5f * std::cbrt(30000.0f) * 2.0f * radius, 1e-5f);
+  EXPECT_EQ(fine.lo.y, -fine.hi.y);
+  for (const auto& r : data.volume_records) EXPECT_TRUE(fine.contains(r.position));
+  for (const auto& r : data.outer_records) EXPECT_FALSE(fine.contains(r.position));
+  EXPECT_GT(data.outer_records.size(), records.size() / 5);
+  // The scene's grid keeps cells of 2r; one grid over everything would not.
+  EXPECT_LE(data.volume.info.cell, 2.0f * radius * 1.001f);
+  EXPECT_GT(spm::volume_grid(records, radius).info.cell, 20.0f * radius);
+
+  auto& dev = spm::test::device();
+  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{medium});
+  const int n = 400;
+  std::vector<cl_float4> origins(n), dirs(n);
+  for (int i = 0; i < n; ++i) {
+    // Short rays inside the scene, and rays from it through the far cloud.
+    const glm::vec3 o(0.8f * core(rng), 0.8f * core(rng), 0.8f * core(rng));
+    const glm::vec3 aim = glm::vec3(150.0f, 0.0f, 0.0f) + 0.8f * glm::vec3(core(rng), core(rng), core(rng));
+    const glm::vec3 d = i % 2 == 0 ? glm::normalize(glm::vec3(core(rng), core(rng), core(rng)) + glm::vec3(1e-3f))
+                                   : glm::normalize(aim - o);
+    const float t1 = i % 2 == 0 ? 1.5f : 400.0f;
+    origins[i] = {{o.x, o.y, o.z, 0.0f}};
+    dirs[i] = {{d.x, d.y, d.z, t1}};
+  }
+  const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
+  std::vector<cl_float4> sum(n, cl_float4{{0.0f, 0.0f, 0.0f, 0.0f}});
+  const std::pair<const spm::RecordGrid*, const std::vector<SpmVolumeRecord>*> grids[2] = {
+      {&data.volume, &data.volume_records}, {&data.outer, &data.outer_records}};
+  for (const auto& [grid, recs] : grids) {
+    const cl::Buffer info = dev.upload("volume_info", std::vector<SpmGridInfo>{grid->info});
+    const cl::Buffer start = dev.upload("volume_start", grid->cell_start);
+    const cl::Buffer pos = dev.upload("volume_pos", spm::volume_item_positions(*grid, *recs));
+    const cl::Buffer items = dev.upload("volume_items", grid->items);
+    const cl::Buffer rb = dev.upload("volume", *recs);
+    const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
+    cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
+    spm::set_args(k, spm::arg("info", info), spm::arg("cell_start", start), spm::arg("item_pos", pos),
+                  spm::arg("items", items), spm::arg("records", rb), spm::arg("media", media),
+                  spm::arg("origins", ob), spm::arg("directions", db), spm::arg("out", out),
+                  spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)), spm::arg("radius", radius),
+                  spm::arg("density_kernel", cl_uint(0)), spm::arg("estimator", cl_uint(0)),
+                  spm::arg("min_rec_depth", cl_uint(0)), spm::arg("max_rec_depth", cl_uint(SPM_NONE)));
+    dev.launch(k, n);
+    const auto got = dev.download<cl_float4>(out, n);
+    for (int i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) sum[i].s[c] += got[i].s[c];
+    }
+  }
+  int outer_rays = 0;
+  for (int i = 0; i < n; ++i) {
+    const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
+    const dvec3 d(dirs[i].s[0], dirs[i].s[1], dirs[i].s[2]);
+    const dvec3 ref = beam_reference(records, medium, 0, o, d, 0.0, dirs[i].s[3], radius, 0, 0, 0u, SPM_NONE);
+    const dvec3 core_only =
+        beam_reference(data.volume_records, medium, 0, o, d, 0.0, dirs[i].s[3], radius, 0, 0, 0u, SPM_NONE);
+    if (ref.x > core_only.x * (1.0 + 1e-3)) ++outer_rays;
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(sum[i].s[c], ref[c], 1e-4 * std::abs(ref[c]) + 1e-9) << "ray " << i << " channel " << c;
+    }
+  }
+  // Some rays must meet outer records, or the second grid went untested.
+  EXPECT_GT(outer_rays, n / 4);
+}
+
 TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);

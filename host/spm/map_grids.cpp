@@ -84,6 +84,19 @@ bool QueryBounds::contains(const float* p) const {
   return true;
 }
 
+QueryBounds volume_core(const QueryBounds& reach, size_t records, float radius) {
+  QueryBounds core = reach;
+  const float edge = std::cbrt(float(records)) * 2.0f * radius;
+  for (int k = 0; k < 3; ++k) {
+    if (!std::isfinite(reach.lo[k]) || !std::isfinite(reach.hi[k])) continue;
+    const float centre = 0.5f * (reach.lo[k] + reach.hi[k]);
+    const float half = std::max(0.5f * (reach.hi[k] - reach.lo[k]), 0.5f * edge);
+    core.lo[k] = std::min(reach.lo[k], centre - half);
+    core.hi[k] = std::max(reach.hi[k], centre + half);
+  }
+  return core;
+}
+
 std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
                                                    const QueryBounds& reach) {
   std::vector<SpmSurfaceRecord> out;
@@ -101,7 +114,9 @@ size_t vector_bytes(const std::vector<T>& v) {
 
 size_t MapGridData::bytes() const {
   return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
-         vector_bytes(volume.items) + vector_bytes(volume_records) + vector_bytes(surface.cell_start) +
+         vector_bytes(volume.items) + vector_bytes(volume_records) + sizeof(SpmGridInfo) +
+         vector_bytes(outer.cell_start) + vector_bytes(outer_pos) + vector_bytes(outer.items) +
+         vector_bytes(outer_records) + vector_bytes(surface.cell_start) +
          vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
          vector_bytes(beam.items) + vector_bytes(beams) + sizeof(SpmGridInfo) + vector_bytes(caustic.cell_start) +
          vector_bytes(caustic_pos) + vector_bytes(caustic_flux);
@@ -128,16 +143,25 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
       if (r.flags & SPM_RECORD_CAUSTIC) caustic.push_back(r);
     }
   }
+  std::vector<SpmVolumeRecord> outer;
+  const QueryBounds core = volume_core(reach, volume.size(), radius);
+  const auto far = std::stable_partition(volume.begin(), volume.end(),
+                                         [&](const SpmVolumeRecord& r) { return core.contains(r.position); });
+  outer.assign(far, volume.end());
+  volume.erase(far, volume.end());
   d.volume = volume_grid(volume, radius);
+  d.outer = volume_grid(outer, radius);
   d.surface = surface_grid(surface, radius);
   d.caustic = surface_grid(caustic, radius);
   d.beam = beam_grid(beams, beam_radius);
   d.volume_pos = volume_item_positions(d.volume, volume);
+  d.outer_pos = volume_item_positions(d.outer, outer);
   d.surface_pos = surface_item_positions(d.surface, surface);
   d.surface_flux = surface_item_flux(d.surface, surface);
   d.caustic_pos = surface_item_positions(d.caustic, caustic);
   d.caustic_flux = surface_item_flux(d.caustic, caustic);
   d.volume_records = std::move(volume);
+  d.outer_records = std::move(outer);
   d.beams = std::move(beams);
   return d;
 }
@@ -148,6 +172,11 @@ MapGrids::MapGrids(Device& device, const MapGridData& d)
       volume_pos(device.upload("volume_pos", d.volume_pos)),
       volume_items(device.upload("volume_items", d.volume.items)),
       volume(device.upload("volume", d.volume_records)),
+      outer_info(device.upload("outer_info", std::vector<SpmGridInfo>{d.outer.info})),
+      outer_start(device.upload("outer_start", d.outer.cell_start)),
+      outer_pos(device.upload("outer_pos", d.outer_pos)),
+      outer_items(device.upload("outer_items", d.outer.items)),
+      outer(device.upload("outer", d.outer_records)),
       surface_info(device.upload("surface_info", std::vector<SpmGridInfo>{d.surface.info})),
       surface_start(device.upload("surface_start", d.surface.cell_start)),
       surface_pos(device.upload("surface_pos", d.surface_pos)),

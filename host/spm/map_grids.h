@@ -49,6 +49,12 @@ struct QueryBounds {
   bool contains(const float* p) const;
 };
 
+// The volume records that go to the fine grid (map_grid_data): those in
+// `reach` grown about its centre to an edge of cbrt(records) cells of 2r
+// where that is wider, so that the fine grid has about as many cells as
+// records while it holds the records near the scene as well as in it.
+QueryBounds volume_core(const QueryBounds& reach, size_t records, float radius);
+
 // The surface records the gather uses: with next-event estimation
 // (`skip_direct`), not those of streams that had no event before (METHOD.md
 // 5); and only those inside `reach`, so that the grid stays as tight as the
@@ -60,9 +66,9 @@ std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceR
 // map's sphere grid, the surface map's point grid and the stream beams'
 // capsule grid with their per-item arrays, as MapGrids uploads them.
 struct MapGridData {
-  RecordGrid volume, surface, beam, caustic;
-  std::vector<cl_float4> volume_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
-  std::vector<SpmVolumeRecord> volume_records;
+  RecordGrid volume, outer, surface, beam, caustic;
+  std::vector<cl_float4> volume_pos, outer_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
+  std::vector<SpmVolumeRecord> volume_records, outer_records;
   std::vector<SpmBeam> beams;
   size_t bytes() const;  // device memory of the upload
 };
@@ -81,6 +87,12 @@ struct MapParts {
 // estimates need every record, so all stay, the camera's own vertex
 // leaving the direct ones out by their depth; the caustic grid then holds
 // the surface records flagged SPM_RECORD_CAUSTIC, read at that vertex.
+// Volume records outside volume_core(reach) go to a grid of their own (`outer`): in a
+// fog that fills all space they spread hundreds of radii beyond the scene,
+// and one grid over all of them, capped in cells, would have cells far
+// wider than 2r where the queries are (README "Why more streams cost the
+// fog box so much"). Each record is in one of the two grids, and the
+// gather sums both.
 MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather = false,
                           const QueryBounds& reach = {});
 
