@@ -25,7 +25,7 @@ typedef struct SpmMaps {
   SpmGrid volume_grid;
   const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
-  SpmGrid outer_grid; /* the volume records outside the query bounds (map_grids.h) */
+  SpmGrid outer_grid; /* the volume records outside volume_core (map_grids.h) */
   const __global uint* outer_items;
   const __global SpmVolumeRecord* outer;
   const __global SpmGridInfo* beam_info;

@@ -11,7 +11,7 @@
   X(float4, volume_pos)        /* per item: the record's position; w: its depth */           \
   X(uint, volume_items)        /* per item: the record's index */                            \
   X(SpmVolumeRecord, volume)   /* the records */                                             \
-  X(SpmGridInfo, outer_info)   /* the volume records outside the query bounds: a coarse grid */ \
+  X(SpmGridInfo, outer_info)   /* the volume records outside volume_core: their own grid */  \
   X(uint, outer_start)         /* its cells' first items (CSR) */                            \
   X(float4, outer_pos)         /* per item: the record's position; w: its depth */           \
   X(uint, outer_items)         /* per item: the record's index */                            \
