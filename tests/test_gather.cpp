@@ -161,9 +161,10 @@ INSTANTIATE_TEST_SUITE_P(KernelsAndEstimators, BeamEstimate,
 
 // A fog that fills all space spreads its records far beyond the scene: a
 // single grid over all of them, capped in cells, would have cells far wider
-// than 2r. map_grid_data puts the records outside the query bounds in a
-// grid of their own; the two estimates together must equal the brute-force
-// sum over every record, for rays that start in the scene and run far out.
+// than 2r. map_grid_data puts the records outside volume_core (the query
+// bounds grown) in a grid of their own; the two estimates together must
+// equal the brute-force sum over every record, for rays that start in the
+// scene and run far out.
 TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> core(-1.0f, 1.0f), far(-300.0f, 300.0f), flux(0.0f, 2.0f);
