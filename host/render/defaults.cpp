@@ -95,6 +95,14 @@ Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot
     st.stream_width = 0.0f;
     // The pilot reads the events' positions (the volume records), never beams.
     st.beams = false;
+    // Some drivers (PoCL among them) compile a kernel for its work-group size
+    // at its first launch, which would time the compiler rather than the
+    // streams (2 s against 0.08 s on the fog box with a cold cache) and size
+    // a timed render's passes ten times too small. A few streams first, on
+    // their own propagator and untimed, launch every stage once.
+    StreamSettings warm = st;
+    warm.streams = std::min<uint32_t>(st.streams, kPilotWarmStreams);
+    StreamPropagator(device, gpu, warm).propagate(0, 0.0f);
     StreamPropagator propagator(device, gpu, st);
     Timer timer;
     const PhotonMaps maps = propagator.propagate(0, 0.0f);

@@ -27,6 +27,11 @@ inline constexpr int kDefaultAssociated = 4;
 // is the distance to the kScaleNeighbours-th nearest record (README).
 inline constexpr int kScaleNeighbours = 32;
 
+// Streams the scale pilot traces untimed before its timed run, so that the
+// kernels' first launches (a driver's lazy compilation) stay out of the
+// time that sizes a timed render's passes.
+inline constexpr uint32_t kPilotWarmStreams = 64;
+
 // Streams of a pass that write stream beams (METHOD.md 11) when the gather
 // reads them and the scene names no number: a beam gathers along its whole
 // length, so a few hundred make a smooth estimate, while the gather's cost
