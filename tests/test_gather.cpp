@@ -62,11 +62,38 @@ struct VolumeBuffers {
   cl::Buffer info, start, pos, items, records;
 };
 
-VolumeBuffers upload(spm::Device& dev, const std::vector<SpmVolumeRecord>& records, float radius) {
-  const spm::RecordGrid grid = spm::volume_grid(records, radius);
+VolumeBuffers upload(spm::Device& dev, const spm::RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
   return {dev.upload("volume_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("volume_start", grid.cell_start),
           dev.upload("volume_pos", spm::volume_item_positions(grid, records)), dev.upload("volume_items", grid.items),
           dev.upload("volume", records)};
+}
+
+VolumeBuffers upload(spm::Device& dev, const std::vector<SpmVolumeRecord>& records, float radius) {
+  return upload(dev, spm::volume_grid(records, radius), records);
+}
+
+// What spm_beam_test sets apart from the map and the rays.
+struct BeamTestSettings {
+  float radius = 0.0f;
+  int kernel = 0, estimator = 0;
+  uint32_t min_depth = 0, max_depth = SPM_NONE;
+};
+
+// spm_beam_test over n rays (origin and t0, direction and t1) through the
+// volume map `u` in medium 0 of `media`: one estimate per ray.
+std::vector<cl_float4> beam_test(const VolumeBuffers& u, const cl::Buffer& media, const cl::Buffer& origins,
+                                 const cl::Buffer& directions, int n, const BeamTestSettings& t) {
+  auto& dev = spm::test::device();
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
+  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
+                spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
+                spm::arg("origins", origins), spm::arg("directions", directions), spm::arg("out", out),
+                spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)), spm::arg("radius", t.radius),
+                spm::arg("density_kernel", cl_uint(t.kernel)), spm::arg("estimator", cl_uint(t.estimator)),
+                spm::arg("min_rec_depth", cl_uint(t.min_depth)), spm::arg("max_rec_depth", cl_uint(t.max_depth)));
+  dev.launch(k, n);
+  return dev.download<cl_float4>(out, n);
 }
 
 // The surface map: grid info, cell starts, item positions (normal packed),
@@ -125,16 +152,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
     dirs[i] = {{d.x, d.y, d.z, t1}};
   }
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
-  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
-  cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
-  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
-                spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
-                spm::arg("origins", ob), spm::arg("directions", db), spm::arg("out", out), spm::arg("count", cl_uint(n)),
-                spm::arg("medium", cl_int(0)), spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
-                spm::arg("estimator", cl_uint(estimator)), spm::arg("min_rec_depth", cl_uint(min_depth)),
-                spm::arg("max_rec_depth", cl_uint(max_depth)));
-  dev.launch(k, n);
-  const auto got = dev.download<cl_float4>(out, n);
+  const auto got = beam_test(u, media, ob, db, n, {radius, kernel, estimator, min_depth, max_depth});
   int nonzero = 0;
   for (int i = 0; i < n; ++i) {
     const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
@@ -221,21 +239,9 @@ TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
   const std::pair<const spm::RecordGrid*, const std::vector<SpmVolumeRecord>*> grids[2] = {
       {&data.volume, &data.volume_records}, {&data.outer, &data.outer_records}};
   for (const auto& [grid, recs] : grids) {
-    const cl::Buffer info = dev.upload("volume_info", std::vector<SpmGridInfo>{grid->info});
-    const cl::Buffer start = dev.upload("volume_start", grid->cell_start);
-    const cl::Buffer pos = dev.upload("volume_pos", spm::volume_item_positions(*grid, *recs));
-    const cl::Buffer items = dev.upload("volume_items", grid->items);
-    const cl::Buffer rb = dev.upload("volume", *recs);
-    const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
-    cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
-    spm::set_args(k, spm::arg("info", info), spm::arg("cell_start", start), spm::arg("item_pos", pos),
-                  spm::arg("items", items), spm::arg("records", rb), spm::arg("media", media),
-                  spm::arg("origins", ob), spm::arg("directions", db), spm::arg("out", out),
-                  spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)), spm::arg("radius", radius),
-                  spm::arg("density_kernel", cl_uint(0)), spm::arg("estimator", cl_uint(0)),
-                  spm::arg("min_rec_depth", cl_uint(0)), spm::arg("max_rec_depth", cl_uint(SPM_NONE)));
-    dev.launch(k, n);
-    const auto got = dev.download<cl_float4>(out, n);
+    BeamTestSettings t;
+    t.radius = radius;
+    const auto got = beam_test(upload(dev, *grid, *recs), media, ob, db, n, t);
     for (int i = 0; i < n; ++i) {
       for (int c = 0; c < 3; ++c) sum[i].s[c] += got[i].s[c];
     }
