@@ -287,6 +287,9 @@ TEST_F(TimeBudget, PassesEndWithinTheBudget) {
   EXPECT_LE(j["seconds"].get<double>(), 3.15);
   EXPECT_GE(j["passes"].get<int>(), 1);
   EXPECT_EQ(j["settings"]["time_budget_s"].get<double>(), 3.0);
+  // Before any stage is timed, the first pass of a balanced render takes at
+  // most 4 samples per pixel (render.cpp, kFirstBalancedSpp).
+  EXPECT_LE(j["passes_detail"][0]["camera_samples"].get<int>(), 4 * 32 * 32);
   // Complete, correctly weighted passes: the image mean agrees with fixed
   // pass renders of the same scene. The timed render is about as noisy as
   // one of them (standard deviation sqrt(6) SE), so the bound is 5 standard
