@@ -88,7 +88,7 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   float3 wi, lp, ln;
   float dist;
   float4 u = rng4(rng, SPM_RNG_LIGHT_PICK, 0);
-  u.zw = stratify2(rng, SPM_RNG_LIGHT_PICK, 0u, u.zw);
+  u.zw = stratify2(rng, SPM_RNG_LIGHT_PICK, 0u);
   const float3 li = sample_light_incident(s, surf->p, u, &wi, &dist, &lp, &ln);
   const float cos_x = dot(wi, n);
   if (cos_x <= 0.0f || max_comp(li) <= 0.0f) return (float3)(0.0f);
@@ -115,7 +115,7 @@ typedef struct SpmNeeLight {
 inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) {
   SpmNeeLight n;
   float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 0);
-  u.zw = stratify2(rng, SPM_RNG_MEDIUM_NEE, 0u, u.zw);
+  u.zw = stratify2(rng, SPM_RNG_MEDIUM_NEE, 0u);
   n.light = sample_light_point(s, u, &n.y, &n.yn, &n.prob);
   n.delta = dot(n.y - o, d);
   n.D = length(n.y - (o + n.delta * d));
@@ -151,7 +151,7 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
   if (max_comp(sigma_s) <= 0.0f || !(t1 > t0)) return (float3)(0.0f);
   const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
   const SpmNeeLight n = nee_light(s, o, d, rng);
-  const float2 u = stratify2(rng, SPM_RNG_MEDIUM_NEE, 1u, rng4(rng, SPM_RNG_MEDIUM_NEE, 1).xy);
+  const float2 u = stratify2(rng, SPM_RNG_MEDIUM_NEE, 1u);
   const bool angular = n.D > 0.0f;
   const float th0 = atan2(t0 - n.delta, n.D);
   const float th1 = isinf(t1) ? 0.5f * SPM_PI : atan2(t1 - n.delta, n.D);
@@ -289,7 +289,7 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
  * depth count. */
 inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf, float3 d, int medium,
                            uint max_depth, SpmRng rng, uint* tests) {
-  const float2 u = stratify2(rng, SPM_RNG_FINAL_GATHER, 0u, rng4(rng, SPM_RNG_FINAL_GATHER, 0).xy);
+  const float2 u = stratify2(rng, SPM_RNG_FINAL_GATHER, 0u);
   const float3 wi = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d));
   float3 o = leave_surface(surf, wi);
   medium = target_medium(&s->shapes[surf->shape], surf->ng, wi, medium);
@@ -458,9 +458,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   for (uint i = 0; i < params.spp; ++i) {
     /* Event index: a block of 256 per sample, one per path vertex. */
     SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);
-    rng.sample = i;
-    rng.samples = params.spp;
-    const float2 u = stratify2(rng, SPM_RNG_CAMERA, 0u, rng4(rng, SPM_RNG_CAMERA, 0).xy);
+    rng.sample = params.first_sample + i;
+    rng.strata = params.strata_seed;
+    const float2 u = stratify2(rng, SPM_RNG_CAMERA, 0u);
     const float2 off = sample_filter(camera, u.x, u.y);
     float3 o;
     float tmin, tmax;

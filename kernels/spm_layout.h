@@ -22,7 +22,7 @@
   S(SpmBeam, 64)              \
   S(SpmSurfaceRecord, 64)     \
   S(SpmStreamParams, 64)      \
-  S(SpmGatherParams, 48)      \
+  S(SpmGatherParams, 64)      \
   S(SpmGridInfo, 32)
 
 /* F(struct, field) */
@@ -64,6 +64,7 @@
   F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
   F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
+  F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed)                               \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

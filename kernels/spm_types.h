@@ -275,6 +275,9 @@ typedef struct SpmGatherParams {
   spm_float beam_radius;   /* the stream beams' 1D kernel radius in the pass */
   spm_uint final_gather;   /* 1: one gather ray at the camera's diffuse vertex (with SPM_DIRECT_NEE) */
   spm_float march_step;    /* Delta of heterogeneous media's transmittance; 0: ratio tracking (METHOD.md 12) */
+  spm_uint first_sample;   /* the render's index of the pass's first sample per pixel (stratify2) */
+  spm_uint strata_seed;    /* which scrambled sequence those indices read (stratify2) */
+  spm_uint pad[2];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

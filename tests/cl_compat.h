@@ -30,6 +30,7 @@
 namespace spm::clc {
 
 using uint = std::uint32_t;
+using ulong = std::uint64_t;
 
 // ---- the device's math library, modelled ------------------------------------
 //

@@ -186,6 +186,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.final_gather = final_gather_ ? 1u : 0u;
     params.march_step = scene_.integrator.march_step;
     params.direct_terms = direct_terms && k == 0;
+    params.first_sample = first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass) * s.spp);
+    params.strata_seed = strata_seed_;
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();
     stages.stage("gather", t);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "device/device.h"
@@ -33,6 +34,15 @@ class PassRenderer {
   // Camera samples per pixel of the passes rendered from now on.
   void set_spp(int spp) { settings_.spp = spp; }
 
+  // The next passes' camera samples are the pixels' samples first,
+  // first + 1, ... of the scrambled sequence `strata` (kernels/lib/rng.h,
+  // stratify2). Without it pass p's are p x spp onwards of sequence 0, which
+  // tiles the sequence when every pass has the same samples.
+  void set_first_sample(uint32_t first, uint32_t strata) {
+    first_sample_ = first;
+    strata_seed_ = strata;
+  }
+
  private:
   // Where the host stages of a pass go, and their clock.
   struct Stages {
@@ -59,6 +69,8 @@ class PassRenderer {
   size_t maps_budget_ = 0;  // device bytes the maps' grids of a pass (or of each part) may take
   glm::vec3 scene_lo_{-INFINITY}, scene_hi_{INFINITY};  // the BVH's bounds: where surface queries can be
   size_t host_budget_ = 0;  // host bytes a pass's maps may hold before they are gathered (SPM_HOST_MEMORY)
+  int64_t first_sample_ = -1;  // set_first_sample; -1: pass x spp
+  uint32_t strata_seed_ = 0;
   cl_uint density_kernel_, estimator_, direct_;
   bool final_gather_;
 };

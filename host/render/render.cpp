@@ -203,6 +203,11 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
 
   std::mutex mutex;
   std::atomic<int> next{0};
+  // A balanced render's passes differ in samples, so pass x spp would not
+  // tile the pixels' scrambled sequence (stratify2): each pass claims the
+  // next run of sample indices instead, one sequence per process, whose
+  // ranks read sequences of their own.
+  std::atomic<uint32_t> samples_claimed{0};
   std::atomic<bool> failed{false};
   std::exception_ptr error;
   RenderStats st;
@@ -243,6 +248,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         const int k = next++;
         const int pass = slice.offset + k * slice.stride;
         if (!timed && pass >= s.passes) break;
+        if (balance) renderer.set_first_sample(samples_claimed.fetch_add(uint32_t(spp)), 1u + uint32_t(slice.offset));
         Timer busy;
         PassOutput out = renderer.render(pass, profiler, int(d) + 1);
         if (profiler) {
@@ -255,12 +261,18 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         elapsed += clock.lap();
         longest = std::max(longest, took);
         if (balance) {
-          // From the means over this device's passes so far, steadier than one pass.
+          // From the means over this device's passes so far, steadier than
+          // one pass. The first pass also pays for its kernels' first
+          // launches (PoCL compiles the gather for its work-group size then:
+          // cornell_fog at 64x64 with a cold cache waited 1.06 s before a
+          // gather of 0.09 s), which would starve later passes of samples, so the
+          // means and the longest parts start again from the second pass.
+          if (done == 1) photon_seconds = gather_seconds = samples = longest_rest = longest_per_sample = 0.0;
           photon_seconds += out.propagate_seconds + out.grid_seconds;
           gather_seconds += out.gather_seconds;
           samples += spp;
           const int next_spp =
-              balanced_spp(photon_seconds / (done + 1), gather_seconds * spp / samples, spp, in.time);
+              balanced_spp(photon_seconds / std::max(1, done), gather_seconds * spp / samples, spp, in.time);
           longest_rest = std::max(longest_rest, took - out.gather_seconds);
           longest_per_sample = std::max(longest_per_sample, out.gather_seconds / spp);
           longest = longest_rest + longest_per_sample * next_spp;

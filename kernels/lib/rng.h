@@ -25,15 +25,16 @@
 #define SPM_RNG_TRANSMITTANCE 13u
 #define SPM_RNG_STRATA 14u
 
-/* sample, samples: a pixel's camera sample in its pass and how many the pass
- * takes (0 and 1 elsewhere), for stratify2. */
+/* sample, strata: a camera sample's index among its pixel's samples of the
+ * whole render, and the scrambled sequence it reads (stratify2; 0 and 0
+ * outside the gather). */
 typedef struct SpmRng {
   uint seed;
   uint pass;
   uint id;
   uint event;
   uint sample;
-  uint samples;
+  uint strata;
 } SpmRng;
 
 inline SpmRng rng_make(uint seed, uint pass, uint id, uint event) {
@@ -43,7 +44,7 @@ inline SpmRng rng_make(uint seed, uint pass, uint id, uint event) {
   r.id = id;
   r.event = event;
   r.sample = 0u;
-  r.samples = 1u;
+  r.strata = 0u;
   return r;
 }
 
@@ -58,58 +59,63 @@ inline float4 rng4(SpmRng r, uint purpose, uint lane) {
   return SPM_F4(u01(x.v[0]), u01(x.v[1]), u01(x.v[2]), u01(x.v[3]));
 }
 
-/* Element i of a pseudo-random permutation of 0 .. n - 1 chosen by key p
- * (Kensler 2013, "Correlated Multi-Jittered Sampling", its permute: a
- * hash that is a bijection on the next power of two, cycle-walked into
- * [0, n)). */
-inline uint permute(uint i, uint n, uint p) {
-  uint w = n - 1u;
-  w |= w >> 1;
-  w |= w >> 2;
-  w |= w >> 4;
-  w |= w >> 8;
-  w |= w >> 16;
-  do {
-    i ^= p;
-    i *= 0xe170893du;
-    i ^= p >> 16;
-    i ^= (i & w) >> 4;
-    i ^= p >> 8;
-    i *= 0x0929eb3fu;
-    i ^= p >> 23;
-    i ^= (i & w) >> 1;
-    i *= 1u | p >> 27;
-    i *= 0x6935fa69u;
-    i ^= (i & w) >> 11;
-    i *= 0x74dcb303u;
-    i ^= (i & w) >> 2;
-    i *= 0x9e501cc3u;
-    i ^= (i & w) >> 2;
-    i *= 0xc860a3dfu;
-    i &= w;
-    i ^= i >> 5;
-  } while (i >= n);
-  return (i + p) % n;
+/* The 8 bits of b in reverse order, by the 64-bit multiply-and-mask of
+ * Bit Twiddling Hacks; x's 32 bits in reverse order from its bytes. The
+ * usual shift-and-mask swaps are no good here: clang turns them into
+ * llvm.bitreverse, which Oclgrind cannot run. */
+inline uint reverse_byte(uint b) {
+  return (uint)((((ulong)b * 0x0802UL & 0x22110UL) | ((ulong)b * 0x8020UL & 0x88440UL)) * 0x10101UL >> 16) & 0xffu;
 }
 
-/* Two uniforms u of one decision moved into a Latin hypercube over a
- * pixel's r.samples camera samples of the pass: each coordinate of sample
- * r.sample falls in its own 1/samples stratum, the strata shuffled by a
- * permutation per coordinate keyed by (pixel, vertex, purpose, lane), the
- * same for all the pixel's samples. Each sample stays uniform on the unit
- * square, so every estimate keeps its mean, while the pixel's samples of a
- * pass spread evenly over the square (the 2D integrands of the final
- * gather's direction, a light's point and the pixel filter lose the
- * variance of their one-dimensional parts). The vertex is the event's
- * offset in the sample's block of 256 (spm_gather). */
-inline float2 stratify2(SpmRng r, uint purpose, uint lane, float2 u) {
-  if (r.samples <= 1u) return u;
-  philox4x32_key_t k = {{r.seed, r.pass}};
+inline uint reverse_bits(uint x) {
+  return (reverse_byte(x & 0xffu) << 24) | (reverse_byte((x >> 8) & 0xffu) << 16) |
+         (reverse_byte((x >> 16) & 0xffu) << 8) | reverse_byte(x >> 24);
+}
+
+/* A nested uniform (Owen) scramble of the 32-bit fraction x chosen by
+ * `seed`: Laine and Karras's hash permutes each bit by the bits above it
+ * when they are reversed (Burley 2020, "Practical Hash-based Owen
+ * Scrambling"). On an index it maps every aligned block of 2^k indices
+ * onto another. */
+inline uint owen_scramble(uint x, uint seed) {
+  x = reverse_bits(x);
+  x += seed;
+  x ^= x * 0x6c50b47cu;
+  x ^= x * 0xb82f1e52u;
+  x ^= x * 0xc7afe638u;
+  x ^= x * 0x8d22f6e6u;
+  return reverse_bits(x);
+}
+
+/* The second dimension of Sobol's sequence as a 32-bit fraction (its
+ * generator matrix is Pascal's triangle mod 2; the first dimension is the
+ * bit-reversed index). */
+inline uint sobol_second(uint i) {
+  uint r = 0u;
+  for (uint v = 1u << 31; i != 0u; i >>= 1, v ^= v >> 1) {
+    if (i & 1u) r ^= v;
+  }
+  return r;
+}
+
+/* The two uniforms of one 2D decision of camera sample r.sample of its
+ * pixel: point r.sample of the first two dimensions of Sobol's sequence, a
+ * (0,2)-sequence, with the index shuffled and each coordinate
+ * Owen-scrambled by seeds keyed by (pixel, vertex, decision, r.strata)
+ * and not by the pass (Burley 2020's shuffled scrambled Sobol'). Every
+ * sample is uniform on the unit square, so no estimate changes its mean,
+ * while each aligned run of 2^k of a pixel's samples, the passes' and the
+ * whole render's, puts one point in every elementary box of area 2^-k: the
+ * final gather's direction, a light's point and the pixel filter are
+ * stratified across passes. Each decision has its own seeds, so their
+ * strata are independent (padding). The vertex is the event's offset in
+ * the sample's block of 256 (spm_gather). */
+inline float2 stratify2(SpmRng r, uint purpose, uint lane) {
+  philox4x32_key_t k = {{r.seed, r.strata}};
   philox4x32_ctr_t c = {{r.id, r.event & 255u, SPM_RNG_STRATA, (purpose << 8) | lane}};
   const philox4x32_ctr_t p = philox4x32(c, k);
-  const float n = (float)r.samples;
-  return SPM_F2(((float)permute(r.sample, r.samples, p.v[0]) + u.x) / n,
-                ((float)permute(r.sample, r.samples, p.v[1]) + u.y) / n);
+  const uint i = owen_scramble(r.sample, p.v[0]);
+  return SPM_F2(u01(owen_scramble(reverse_bits(i), p.v[1])), u01(owen_scramble(sobol_second(i), p.v[2])));
 }
 
 #endif
