@@ -25,7 +25,8 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
 /* In-scattered radiance towards the camera along [t0, t1] of o + t d (unit d)
  * inside medium `m`, with transmittance measured from t0 (the caller applies
  * the throughput up to t0). Each record whose sphere of radius r the segment
- * crosses is counted once: in the cell holding its closest point on the ray.
+ * crosses is counted once: in the cell whose span of the walk holds its
+ * closest point on the ray (grid_walk_out).
  * - bre: sum_i K(d_i) T(t_i) albedo p(theta_i) (n phi)_i (Jarosz et al. 2008);
  *   in a heterogeneous medium T and the albedo come from the segment's
  *   table `tab` (tab->n > 0; medium.h), else in closed form;
@@ -35,6 +36,14 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  * shallower than min_rec_depth too (2: single scattering comes from
  * next-event estimation).
  * *tests counts the records examined (the profile's sphere tests). */
+/* How beam_estimate weighs a record (SPM_ESTIMATOR_PAPER; bre with the
+ * transmittance of a grey or coloured homogeneous medium, or from a
+ * heterogeneous medium's table). */
+#define SPM_BRE_PAPER 0u
+#define SPM_BRE_GREY 1u
+#define SPM_BRE_COLOURED 2u
+#define SPM_BRE_TABLE 3u
+
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
                             uint density_kernel, uint estimator, uint min_rec_depth, uint max_rec_depth,
@@ -45,38 +54,52 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
   const float r2 = r * r;
   const float3 sigma_t = load3(media[m].sigma_t);
   const float g = media[m].phase == SPM_PHASE_HG ? media[m].g : 0.0f;
+  /* Decided once, not per record (a grey medium's transmittance is one
+   * exponential, not three). */
+  const uint kind = estimator == SPM_ESTIMATOR_PAPER
+                        ? SPM_BRE_PAPER
+                        : (tab->n > 0u ? SPM_BRE_TABLE
+                                       : (sigma_t.x == sigma_t.y && sigma_t.y == sigma_t.z ? SPM_BRE_GREY
+                                                                                            : SPM_BRE_COLOURED));
+  uint examined = 0;
   do {
     const uint c = grid_cell_index(grid->info, walk.cell);
+    const float ta = fmax(t0, walk.t_in), tb = fmin(t1, grid_walk_out(&walk));
     for (uint k = grid->cell_start[c]; k < grid->cell_start[c + 1]; ++k) {
-      ++*tests;
+      ++examined;
       const float4 item = grid->item_pos[k];
       const float3 x = item.xyz;
       const float t = dot(x - o, d);
-      if (t < t0 || t > t1 || item.w > (float)max_rec_depth || item.w < (float)min_rec_depth) continue;
-      const float3 closest = o + t * d;
-      const float3 off = x - closest;
+      const float3 off = x - (o + t * d);
       const float d2 = dot(off, off);
-      if (d2 >= r2) continue;
-      const int3 home = grid_cell_of(grid->info, closest);
-      if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
       const __global SpmVolumeRecord* rec = &records[items[k]];
-      if (rec->medium != m) continue;
-      const float3 flux = load3(rec->flux);
-      if (estimator == SPM_ESTIMATOR_PAPER) {
-        sum += flux;
-      } else {
-        const float cos_theta = -dot(load3(rec->direction), d);
-        const float w = kernel_2d(density_kernel, d2, r2) * phase_hg(cos_theta, g);
-        if (tab->n > 0u) {
-          float3 albedo;
-          const float3 tau = medium_table_depth(tab, t, &albedo);
-          sum += w * exp(-tau) * albedo * flux;
-        } else {
-          sum += w * exp(-sigma_t * (t - t0)) * flux;
-        }
+      const bool in = (t >= ta) & (t < tb) & (d2 < r2) & (item.w <= (float)max_rec_depth) &
+                      (item.w >= (float)min_rec_depth) & (rec->medium == m);
+      /* In a homogeneous medium every record's weight is computed and a
+       * select keeps those in range: whether a record is in range depends
+       * on the data, and branching on it cost more in mispredicted branches
+       * than the terms themselves (README "A branch-free volume estimate").
+       * The select picks, rather than multiplies by a 0/1 mask, since a
+       * record out of range may have an infinite transmittance (t < t0). */
+      if (kind == SPM_BRE_GREY) {
+        const float w = in ? kernel_2d(density_kernel, d2, r2) * phase_hg(-dot(load3(rec->direction), d), g) *
+                                 exp(-sigma_t.x * (t - t0))
+                           : 0.0f;
+        sum += w * load3(rec->flux);
+      } else if (kind == SPM_BRE_COLOURED) {
+        const float w = kernel_2d(density_kernel, d2, r2) * phase_hg(-dot(load3(rec->direction), d), g);
+        sum += in ? w * exp(-sigma_t * (t - t0)) * load3(rec->flux) : (float3)(0.0f);
+      } else if (kind == SPM_BRE_PAPER) {
+        sum += in ? load3(rec->flux) : (float3)(0.0f);
+      } else if (in) {
+        float3 albedo;
+        const float3 tau = medium_table_depth(tab, t, &albedo);
+        sum += kernel_2d(density_kernel, d2, r2) * phase_hg(-dot(load3(rec->direction), d), g) * exp(-tau) *
+               albedo * load3(rec->flux);
       }
     }
   } while (grid_walk_next(grid->info, &walk));
+  *tests += examined;
   if (estimator == SPM_ESTIMATOR_PAPER) return sum / (SPM_PI * r2 * (t1 - t0));
   return tab->n > 0u ? sum : sum * load3(media[m].albedo);
 }
@@ -103,7 +126,8 @@ inline float kernel_1d(uint density_kernel, float d2, float r) {
  * sigma_t and the albedo at the ray's point come from the segment's table
  * (medium.h), and w is 1: a point s along the beam is reached with the
  * probability its transmittance gives. Each beam is counted
- * in the one cell of its capsule grid that holds the ray's closest point.
+ * in the one cell of its capsule grid whose span of the walk holds the
+ * ray's closest point (grid_walk_out).
  * Beams deeper than max_rec_depth or shallower than min_rec_depth are left
  * out (METHOD.md 10; as in beam_estimate); beams within
  * 1e-3 of parallel to the ray, whose 1 / sin(theta) has no bound, too.
@@ -122,6 +146,7 @@ inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __glo
   const float g = media[m].phase == SPM_PHASE_HG ? media[m].g : 0.0f;
   do {
     const uint c = grid_cell_index(info, walk.cell);
+    const float ta = fmax(t0, walk.t_in), tb = fmin(t1, grid_walk_out(&walk));
     for (uint k = cell_start[c]; k < cell_start[c + 1]; ++k) {
       ++*tests;
       const __global SpmBeam* b = &beams[items[k]];
@@ -134,13 +159,10 @@ inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __glo
       const float dw = dot(d, w0), ew = dot(e, w0);
       const float t = (a * ew - dw) / sin2;
       const float sb = (ew - a * dw) / sin2;
-      if (t < t0 || t > t1 || sb < 0.0f || sb > b->length) continue;
-      const float3 x = o + t * d;
-      const float3 off = x - (vload3(0, b->origin) + sb * e);
+      if (!(t >= ta && t < tb) || sb < 0.0f || sb > b->length) continue;
+      const float3 off = o + t * d - (vload3(0, b->origin) + sb * e);
       const float d2 = dot(off, off);
       if (d2 >= r2) continue;
-      const int3 home = grid_cell_of(info, x);
-      if (home.x != walk.cell.x || home.y != walk.cell.y || home.z != walk.cell.z) continue;
       const float w = kernel_1d(density_kernel, d2, r) * rsqrt(sin2) * phase_hg(-a, g);
       if (tab->n > 0u) {
         float3 albedo;

@@ -42,8 +42,16 @@ typedef struct SpmGridWalk {
   int3 step;
   float3 t_next;  /* ray parameter at the next boundary per axis */
   float3 t_delta; /* ray parameter per cell per axis */
+  float t_in;     /* ray parameter where the segment enters the cell */
   float t_end;
 } SpmGridWalk;
+
+/* Ray parameter where the segment leaves the walk's cell. The cells' spans
+ * [t_in, grid_walk_out) partition the segment's part in the grid, so a
+ * record or beam whose point closest to the ray has its parameter in the
+ * span is counted in this cell and in no other (METHOD.md 5: once per
+ * segment); the point then lies in the cell, so the cell lists it. */
+inline float grid_walk_out(const SpmGridWalk* w) { return fmin(fmin(w->t_next.x, w->t_next.y), w->t_next.z); }
 
 /* Starts a walk over [t0, t1] of o + t d clipped to the grid; false when the
  * segment misses it. */
@@ -68,6 +76,7 @@ inline bool grid_walk_begin(const __global SpmGridInfo* g, float3 o, float3 d, f
                        d.y != 0.0f ? (boundary.y - o.y) * inv.y : SPM_INF,
                        d.z != 0.0f ? (boundary.z - o.z) * inv.z : SPM_INF);
   w->t_delta = fabs(g->cell * inv);
+  w->t_in = enter;
   w->t_end = leave;
   return true;
 }
@@ -79,6 +88,7 @@ inline bool grid_walk_next(const __global SpmGridInfo* g, SpmGridWalk* w) {
   if (w->t_next.z < (axis == 0 ? w->t_next.x : w->t_next.y)) axis = 2;
   const float t = axis == 0 ? w->t_next.x : (axis == 1 ? w->t_next.y : w->t_next.z);
   if (t > w->t_end) return false;
+  w->t_in = t;
   if (axis == 0) {
     w->cell.x += w->step.x;
     w->t_next.x += w->t_delta.x;
