@@ -273,51 +273,90 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
   return records_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
 }
 
-/* Indirect light reflected towards the camera at a diffuse vertex, by one
+/* Whether a path of `segments` segments is within max_depth. */
+inline bool within_depth(uint segments, uint max_depth) { return max_depth == SPM_NONE || segments <= max_depth; }
+
+/* Gather rays shorter than SPM_GATHER_NEAR radii do not read the surface
+ * map where they end; the path goes on from there instead, at most
+ * SPM_GATHER_HOPS times (Jensen 1996's remedy for nearby surfaces). Seen
+ * from near, the disk's boundary bias at edges and corners (a disk that
+ * reaches past the surface finds no photons there) covers much of the
+ * gather ray's hemisphere; seen from further than a few radii it is
+ * averaged away. The reach scales with r, so as the passes shrink it the
+ * hops become rare. Each hop's vertex has its own events, past the camera
+ * vertices' (SPM_MAX_CAMERA_SPECULAR) in the sample's block of 256. */
+#define SPM_GATHER_NEAR 4.0f
+#define SPM_GATHER_HOPS 2u
+#define SPM_GATHER_EVENT 248u
+
+/* Indirect light reflected towards the camera at a diffuse vertex, by a
  * final-gather ray (Jensen 1996): a cosine-weighted direction, along which
  * the photon maps give the in-scattered light of every medium segment and
  * the light leaving the first diffuse surface it meets, all records used
- * (no next-event estimation there), attenuated by the transmittance. With
- * the cosine's pdf the reflectance / pi cancels to the reflectance, which
- * the caller applies. Emission and specular surfaces the ray meets add
- * nothing: direct light comes from next-event estimation, and light
- * through a specular chain from the caustic records read at the vertex
- * itself (SPM_RECORD_CAUSTIC), so no light is counted twice. The density
- * estimates' boundary bias at edges and corners (a disk reaching past the
- * surface finds no photons there) is averaged over the gather ray's
- * hemisphere instead of seen directly. max_depth: records of at most this
- * depth count. */
+ * (no next-event estimation in media there), attenuated by the
+ * transmittance. With the cosine's pdf the reflectance / pi cancels to the
+ * reflectance, which the caller applies. Emission and specular surfaces the
+ * ray meets add nothing: direct light comes from next-event estimation,
+ * and light through a specular chain from the caustic records read at the
+ * vertex itself (SPM_RECORD_CAUSTIC), so no light is counted twice. Where
+ * the ray ends near its start (SPM_GATHER_NEAR) its end is a vertex of the
+ * same kind: direct light by a shadow ray, its caustic records, and the
+ * next gather ray. `segments`: the path's segments up to the first vertex,
+ * for max_depth (METHOD.md 10): the records read at the end of hop j's ray
+ * have at most max_depth - segments - 1 - j vertices. */
 inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf, float3 d, int medium,
-                           uint max_depth, SpmRng rng, uint* tests) {
-  const float2 u = stratify2(rng, SPM_RNG_FINAL_GATHER, 0u);
-  const float3 wi = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d));
-  float3 o = leave_surface(surf, wi);
-  medium = target_medium(&s->shapes[surf->shape], surf->ng, wi, medium);
+                           uint segments, uint max_depth, SpmRng rng, uint* tests) {
   float3 tr = (float3)(1.0f);
   float3 li = (float3)(0.0f);
-  for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
-    SpmHit h;
-    const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
-    if (medium >= 0) li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, hit ? h.t : SPM_INF, 0u, max_depth, tests);
-    if (!hit) break;
-    tr *= medium_transmittance(&s->md, medium, o, wi, 0.0f, h.t, maps->march_step, rng,
-                               tr_lane(SPM_TR_FINAL_GATHER, (uint)i));
-    const SpmSurface y = scene_surface(s, o, wi, h);
-    const __global SpmShape* shape = &s->shapes[y.shape];
-    const __global SpmMaterial* m = &s->materials[shape->material];
-    if (m->type == SPM_MAT_NULL) {
-      medium = target_medium(shape, y.ng, wi, medium);
-      o = leave_surface(&y, wi);
-      continue;
+  SpmSurface x = *surf;
+  for (uint hop = 0;; ++hop) {
+    const uint depth_limit =
+        max_depth == SPM_NONE ? SPM_NONE : (max_depth > segments + 1u + hop ? max_depth - segments - 1u - hop : 0u);
+    const float2 u = stratify2(rng, SPM_RNG_FINAL_GATHER, 0u);
+    const float3 wi = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(&x, d));
+    float3 o = leave_surface(&x, wi);
+    medium = target_medium(&s->shapes[x.shape], x.ng, wi, medium);
+    float reach = 0.0f;
+    bool next = false;
+    for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
+      SpmHit h;
+      const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
+      if (medium >= 0)
+        li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, hit ? h.t : SPM_INF, 0u, depth_limit, tests);
+      if (!hit) break;
+      tr *= medium_transmittance(&s->md, medium, o, wi, 0.0f, h.t, maps->march_step, rng,
+                                 tr_lane(SPM_TR_FINAL_GATHER, (uint)i));
+      reach += h.t;
+      const SpmSurface y = scene_surface(s, o, wi, h);
+      const __global SpmShape* shape = &s->shapes[y.shape];
+      const __global SpmMaterial* m = &s->materials[shape->material];
+      if (m->type == SPM_MAT_NULL) {
+        medium = target_medium(shape, y.ng, wi, medium);
+        o = leave_surface(&y, wi);
+        continue;
+      }
+      if (m->type != SPM_MAT_DIFFUSE || !reflects_from(m, &y, wi)) break;
+      const float3 n = facing_normal(&y, wi);
+      if (hop < SPM_GATHER_HOPS && reach < SPM_GATHER_NEAR * maps->radius) {
+        rng.event = (rng.event & ~255u) + SPM_GATHER_EVENT + hop;
+        if (maps->direct_terms && within_depth(segments + hop + 2u, max_depth))
+          li += tr * direct_diffuse(s, &y, m, wi, medium, maps->march_step, rng);
+        tr *= load3(m->reflectance);
+        li += tr * SPM_INV_PI *
+              surface_estimate(&maps->caustic_grid, maps->caustic_flux, y.p, n, maps->radius, maps->density_kernel,
+                               depth_limit);
+        x = y;
+        d = wi;
+        next = true;
+      } else {
+        li += tr * load3(m->reflectance) * SPM_INV_PI *
+              surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, n, maps->radius, maps->density_kernel,
+                               depth_limit);
+      }
+      break;
     }
-    if (m->type == SPM_MAT_DIFFUSE && reflects_from(m, &y, wi)) {
-      li += tr * load3(m->reflectance) * SPM_INV_PI *
-            surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, facing_normal(&y, wi), maps->radius,
-                             maps->density_kernel, max_depth);
-    }
-    break;
+    if (!next) return li;
   }
-  return li;
 }
 
 /* Specular vertices a camera path follows at most: a safety cap, so that
@@ -332,9 +371,6 @@ inline uint record_depth_limit(uint max_depth, uint specular) {
   if (max_depth == SPM_NONE) return SPM_NONE;
   return max_depth > specular + 1u ? max_depth - specular - 1u : 0u;
 }
-
-/* Whether a path of `segments` segments is within max_depth. */
-inline bool within_depth(uint segments, uint max_depth) { return max_depth == SPM_NONE || segments <= max_depth; }
 
 /* One camera sample's radiance. Path depths count as Mitsuba's volpath
  * counts them: emission seen after `specular` specular vertices has
@@ -390,13 +426,11 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, maps->march_step, rng);
         const uint depth_limit = record_depth_limit(max_depth, specular);
         if (maps->final_gather) {
-          /* The gather ray's records lie one vertex further from the camera. */
-          const uint gather_limit = depth_limit == SPM_NONE ? SPM_NONE : (depth_limit > 0u ? depth_limit - 1u : 0u);
           const float3 caustic = pixel_surface_estimate(reuse, &maps->caustic_grid, maps->caustic_flux, surf.p,
                                                         facing_normal(&surf, d), maps->radius, maps->density_kernel,
                                                         depth_limit);
           L += beta * load3(m->reflectance) *
-               (SPM_INV_PI * caustic + final_gather(s, maps, &surf, d, medium, gather_limit, rng, tests));
+               (SPM_INV_PI * caustic + final_gather(s, maps, &surf, d, medium, specular + 1u, max_depth, rng, tests));
         } else {
           const float3 flux = pixel_surface_estimate(reuse, &maps->surface_grid, maps->surface_flux, surf.p,
                                                      facing_normal(&surf, d), maps->radius, maps->density_kernel,
