@@ -273,6 +273,19 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
   return records_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
 }
 
+/* Specular vertices a camera path follows at most: a safety cap, so that
+ * the vertices of a sample (null crossings included, at most 4 per specular
+ * one) fit the block of 256 RNG events each sample has. */
+#define SPM_MAX_CAMERA_SPECULAR 60u
+
+/* Largest depth of a photon record that a camera path with `specular`
+ * specular vertices may use: the path then has depth + specular + 1
+ * segments, at most max_depth (METHOD.md 10; SPM_NONE: unlimited). */
+inline uint record_depth_limit(uint max_depth, uint specular) {
+  if (max_depth == SPM_NONE) return SPM_NONE;
+  return max_depth > specular + 1u ? max_depth - specular - 1u : 0u;
+}
+
 /* Whether a path of `segments` segments is within max_depth. */
 inline bool within_depth(uint segments, uint max_depth) { return max_depth == SPM_NONE || segments <= max_depth; }
 
@@ -310,8 +323,8 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
   float3 li = (float3)(0.0f);
   SpmSurface x = *surf;
   for (uint hop = 0;; ++hop) {
-    const uint depth_limit =
-        max_depth == SPM_NONE ? SPM_NONE : (max_depth > segments + 1u + hop ? max_depth - segments - 1u - hop : 0u);
+    /* Hop j's ray ends at a vertex segments + 1 + j segments from the camera. */
+    const uint depth_limit = record_depth_limit(max_depth, segments + hop);
     const float2 u = stratify2(rng, SPM_RNG_FINAL_GATHER, 0u);
     const float3 wi = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(&x, d));
     float3 o = leave_surface(&x, wi);
@@ -357,19 +370,6 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
     }
     if (!next) return li;
   }
-}
-
-/* Specular vertices a camera path follows at most: a safety cap, so that
- * the vertices of a sample (null crossings included, at most 4 per specular
- * one) fit the block of 256 RNG events each sample has. */
-#define SPM_MAX_CAMERA_SPECULAR 60u
-
-/* Largest depth of a photon record that a camera path with `specular`
- * specular vertices may use: the path then has depth + specular + 1
- * segments, at most max_depth (METHOD.md 10; SPM_NONE: unlimited). */
-inline uint record_depth_limit(uint max_depth, uint specular) {
-  if (max_depth == SPM_NONE) return SPM_NONE;
-  return max_depth > specular + 1u ? max_depth - specular - 1u : 0u;
 }
 
 /* One camera sample's radiance. Path depths count as Mitsuba's volpath

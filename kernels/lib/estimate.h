@@ -22,6 +22,14 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
   return SPM_INV_PI / r2;
 }
 
+/* How beam_estimate weighs a record (SPM_ESTIMATOR_PAPER; bre with the
+ * transmittance of a grey or coloured homogeneous medium, or from a
+ * heterogeneous medium's table). */
+#define SPM_BRE_PAPER 0u
+#define SPM_BRE_GREY 1u
+#define SPM_BRE_COLOURED 2u
+#define SPM_BRE_TABLE 3u
+
 /* In-scattered radiance towards the camera along [t0, t1] of o + t d (unit d)
  * inside medium `m`, with transmittance measured from t0 (the caller applies
  * the throughput up to t0). Each record whose sphere of radius r the segment
@@ -36,14 +44,6 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  * shallower than min_rec_depth too (2: single scattering comes from
  * next-event estimation).
  * *tests counts the records examined (the profile's sphere tests). */
-/* How beam_estimate weighs a record (SPM_ESTIMATOR_PAPER; bre with the
- * transmittance of a grey or coloured homogeneous medium, or from a
- * heterogeneous medium's table). */
-#define SPM_BRE_PAPER 0u
-#define SPM_BRE_GREY 1u
-#define SPM_BRE_COLOURED 2u
-#define SPM_BRE_TABLE 3u
-
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
                             uint density_kernel, uint estimator, uint min_rec_depth, uint max_rec_depth,
