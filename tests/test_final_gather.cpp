@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "render/render.h"
 #include "scene/loader.h"
@@ -15,21 +16,23 @@
 
 namespace {
 
-// A floor and a ceiling 50 apart, a small area light just under the ceiling
-// facing down, a glass sphere, thin global fog (nested in the sensor) and a
-// camera between the planes looking down at the floor: the camera sees
-// the floor's direct light, its indirect light from the ceiling, the
-// sphere's caustic (light through a specular chain, which the gather ray
-// cannot bring) and the fog's single and multiple scattering.
-const char* kScene = R"(<scene version="3.0.0">
+// A floor and a ceiling `gap` apart, both white, a small area light (half
+// edge `light`, centred at x = light_x, y = light_y) under the ceiling
+// facing down, thin global fog (nested in the sensor) and a camera at height
+// `eye` looking down at the floor through a field of view of `fov`
+// degrees; `extra`: more shapes.
+std::string planes_scene(float gap, float eye, float fov, float light, float light_x, float light_y,
+                         const std::string& extra) {
+  auto f = [](float v) { return std::to_string(v); };
+  return R"(<scene version="3.0.0">
   <integrator type="spm">
     <integer name="streams" value="4000"/>
     <integer name="associated" value="4"/>
     <float name="radius" value="3"/>
   </integrator>
   <sensor type="perspective">
-    <float name="fov" value="50"/>
-    <transform name="to_world"><lookat origin="0, 40, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+    <float name="fov" value=")" + f(fov) + R"("/>
+    <transform name="to_world"><lookat origin="0, )" + f(eye) + R"(, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
     <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
     <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film>
     <medium type="homogeneous"><float name="sigma_t" value="0.01"/><float name="albedo" value="0.8"/></medium>
@@ -40,53 +43,37 @@ const char* kScene = R"(<scene version="3.0.0">
     <ref id="white"/>
   </shape>
   <shape type="rectangle">
-    <transform name="to_world"><scale value="100"/><rotate x="1" angle="90"/><translate y="50"/></transform>
+    <transform name="to_world"><scale value="100"/><rotate x="1" angle="90"/><translate y=")" + f(gap) + R"("/></transform>
     <ref id="white"/>
   </shape>
   <shape type="rectangle">
-    <transform name="to_world"><scale value="5"/><rotate x="1" angle="90"/><translate y="49"/></transform>
+    <transform name="to_world"><scale value=")" + f(light) + R"("/><rotate x="1" angle="90"/><translate x=")" +
+         f(light_x) + R"(" y=")" + f(light_y) + R"("/></transform>
     <emitter type="area"><rgb name="radiance" value="40"/></emitter>
   </shape>
-  <shape type="sphere">
+)" + extra + "</scene>";
+}
+
+// Planes 50 apart with a glass sphere, the camera at 40: it sees the
+// floor's direct light, its indirect light from the ceiling, the sphere's
+// caustic (light through a specular chain, which the gather ray cannot
+// bring) and the fog's single and multiple scattering.
+std::string far_scene() {
+  return planes_scene(50.0f, 40.0f, 50.0f, 5.0f, 0.0f, 49.0f, R"(  <shape type="sphere">
     <point name="center" x="5" y="14" z="0"/>
     <float name="radius" value="5"/>
     <bsdf type="dielectric"/>
   </shape>
-</scene>)";
+)");
+}
 
-// Two planes 8 apart, under 4 radii (3), with a small light under the
-// ceiling and thin fog: about half the gather rays from either plane end
-// within SPM_GATHER_NEAR radii, so their ends are vertices with direct
-// light, caustic records and a gather ray of their own, up to
-// SPM_GATHER_HOPS times. Dropping that vertex's direct light, or counting
-// the photons there as well, moves the mean by far more than the bound.
-const char* kNearScene = R"(<scene version="3.0.0">
-  <integrator type="spm">
-    <integer name="streams" value="4000"/>
-    <integer name="associated" value="4"/>
-    <float name="radius" value="3"/>
-  </integrator>
-  <sensor type="perspective">
-    <float name="fov" value="60"/>
-    <transform name="to_world"><lookat origin="0, 6, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
-    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film>
-    <medium type="homogeneous"><float name="sigma_t" value="0.01"/><float name="albedo" value="0.8"/></medium>
-  </sensor>
-  <bsdf type="diffuse" id="white"><rgb name="reflectance" value="0.8"/></bsdf>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="100"/><rotate x="1" angle="-90"/></transform>
-    <ref id="white"/>
-  </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="100"/><rotate x="1" angle="90"/><translate y="8"/></transform>
-    <ref id="white"/>
-  </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="2"/><rotate x="1" angle="90"/><translate x="6" y="7.9"/></transform>
-    <emitter type="area"><rgb name="radiance" value="40"/></emitter>
-  </shape>
-</scene>)";
+// Two planes 8 apart, under 4 radii (3): about half the gather rays from
+// either plane end within SPM_GATHER_NEAR radii, so their ends are
+// vertices with direct light, caustic records and a gather ray of their
+// own, up to SPM_GATHER_HOPS times. Dropping that vertex's direct light,
+// or counting the photons there as well, moves the mean by far more than
+// the bound.
+std::string near_scene() { return planes_scene(8.0f, 6.0f, 60.0f, 2.0f, 6.0f, 7.9f, ""); }
 
 struct Measured {
   double mean = 0.0, standard_error = 0.0;
@@ -94,7 +81,7 @@ struct Measured {
 
 // The image mean (all channels) of one pass per seed, over `seeds` seeds:
 // the passes are independent, so their spread gives the standard error.
-Measured image_means(const char* text, bool final_gather, int seeds) {
+Measured image_means(const std::string& text, bool final_gather, int seeds) {
   spm::Scene scene = spm::load_scene_string(text, "final_gather.xml");
   scene.integrator.final_gather = final_gather;
   double sum = 0.0, sum2 = 0.0;
@@ -114,7 +101,7 @@ Measured image_means(const char* text, bool final_gather, int seeds) {
 }
 
 // Asserts that the final gather's and the direct lookup's image means agree.
-void expect_same_mean(const char* text) {
+void expect_same_mean(const std::string& text) {
   const int seeds = 48;
   const Measured with = image_means(text, true, seeds), without = image_means(text, false, seeds);
   const double se = std::sqrt(with.standard_error * with.standard_error +
@@ -130,8 +117,8 @@ void expect_same_mean(const char* text) {
   EXPECT_LT(4 * se, 0.03 * without.mean) << "too noisy to tell";
 }
 
-TEST(FinalGather, AgreesWithTheDirectLookupOnTheMean) { expect_same_mean(kScene); }
+TEST(FinalGather, AgreesWithTheDirectLookupOnTheMean) { expect_same_mean(far_scene()); }
 
-TEST(FinalGather, ShortGatherRaysGoOnAndAgreeOnTheMean) { expect_same_mean(kNearScene); }
+TEST(FinalGather, ShortGatherRaysGoOnAndAgreeOnTheMean) { expect_same_mean(near_scene()); }
 
 }  // namespace
