@@ -696,6 +696,21 @@ TEST(SceneParser, DiffuseReflectanceForms) {
   EXPECT_EQ(s.materials[1].where, "test.xml:3");
 }
 
+// Mitsuba 3 gives a shape without bsdf a diffuse 0.5, and an emitter shape
+// a black one: its light must not reflect (Shape's constructor; a volpath
+// render of cornell_fog is the same with the light's bsdf black or absent).
+TEST(SceneParser, ShapeWithoutBsdfIsDiffuseHalfAndBlackWhenItEmits) {
+  Scene s = load(R"(<shape type="rectangle"/>
+<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+<shape type="rectangle"><bsdf type="diffuse"/><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>)");
+  ASSERT_EQ(s.shapes.size(), 3u);
+  const auto material = [&](int i) { return s.materials[static_cast<size_t>(s.shapes[i].material)]; };
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(material(i).type, Material::Type::Diffuse);
+  expect_vec3(material(0).reflectance, glm::vec3(0.5f));
+  expect_vec3(material(1).reflectance, glm::vec3(0.0f));
+  expect_vec3(material(2).reflectance, glm::vec3(0.5f));
+}
+
 TEST(SceneParser, RefusesSpectrumOtherThanGray) {
   expect_error(R"(<bsdf type="diffuse">
 <spectrum name="reflectance" value="400:0.1, 700:0.5"/> <!--here-->

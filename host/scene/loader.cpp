@@ -328,7 +328,10 @@ class Loader {
       }
     }
     if (shape.material < 0) {
-      Material fallback;  // Mitsuba gives a shape without bsdf a diffuse 0.5 one
+      // Mitsuba gives a shape without bsdf a diffuse 0.5 one, and an emitter
+      // shape a black one (its Shape constructor sets reflectance 0).
+      Material fallback;
+      if (light) fallback.reflectance = glm::vec3(0.0f);
       fallback.where = shape.where;
       shape.material = static_cast<int>(scene_.materials.size());
       scene_.materials.push_back(fallback);
