@@ -304,17 +304,21 @@ inline bool within_depth(uint segments, uint max_depth) { return max_depth == SP
 
 /* Indirect light reflected towards the camera at a diffuse vertex, by a
  * final-gather ray (Jensen 1996): a cosine-weighted direction, along which
- * the photon maps give the in-scattered light of every medium segment and
- * the light leaving the first diffuse surface it meets, all records used
- * (no next-event estimation in media there), attenuated by the
- * transmittance. With the cosine's pdf the reflectance / pi cancels to the
- * reflectance, which the caller applies. Emission and specular surfaces the
- * ray meets add nothing: direct light comes from next-event estimation,
- * and light through a specular chain from the caustic records read at the
- * vertex itself (SPM_RECORD_CAUSTIC), so no light is counted twice. Where
- * the ray ends near its start (SPM_GATHER_NEAR) its end is a vertex of the
- * same kind: direct light by a shadow ray, its caustic records, and the
- * next gather ray. `segments`: the path's segments up to the first vertex,
+ * the light scattered in every medium segment and the light leaving the
+ * first diffuse surface it meets arrive, attenuated by the transmittance.
+ * As at the camera's own vertex, next-event estimation gives the light
+ * with one scattering or bounce there (inscatter_nee along the ray,
+ * direct_diffuse at its end) and the photon maps the rest, the records of
+ * streams with an earlier event (host/spm/map_grids.cpp): the disks and
+ * beams that reach past walls and edges then miss only that rest, and the
+ * maps hold fewer records. With the cosine's pdf the reflectance / pi
+ * cancels to the reflectance, which the caller applies. Emission and
+ * specular surfaces the ray meets add nothing: direct light comes from
+ * next-event estimation, and light through a specular chain from the
+ * caustic records read at the vertex itself (SPM_RECORD_CAUSTIC), so no
+ * light is counted twice. Where the ray ends near its start
+ * (SPM_GATHER_NEAR) its end is a vertex of the same kind: its caustic
+ * records and the next gather ray instead of its surface estimate. `segments`: the path's segments up to the first vertex,
  * for max_depth (METHOD.md 10): the records read at the end of hop j's ray
  * have at most max_depth - segments - 1 - j vertices. */
 inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf, float3 d, int medium,
@@ -329,13 +333,25 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
     const float3 wi = to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(&x, d));
     float3 o = leave_surface(&x, wi);
     medium = target_medium(&s->shapes[x.shape], x.ng, wi, medium);
+    /* The ray's single scattering and its end's direct light: events of
+     * their own, as the camera vertex's are its own. */
+    SpmRng own = rng;
+    own.event = (rng.event & ~255u) + SPM_GATHER_EVENT + hop;
+    const bool single = maps->direct_terms && within_depth(segments + hop + 2u, max_depth);
     float reach = 0.0f;
     bool next = false;
     for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
       SpmHit h;
       const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
-      if (medium >= 0)
-        li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, hit ? h.t : SPM_INF, 0u, depth_limit, tests);
+      if (medium >= 0) {
+        const float t_end = hit ? h.t : SPM_INF;
+        li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, t_end, 2u, depth_limit, tests);
+        if (single) {
+          li += tr * (medium_is_heterogeneous(&s->md.media[medium])
+                          ? inscatter_nee_heterogeneous(s, medium, o, wi, 0.0f, t_end, maps->march_step, own)
+                          : inscatter_nee(s, medium, o, wi, 0.0f, t_end, maps->march_step, own));
+        }
+      }
       if (!hit) break;
       tr *= medium_transmittance(&s->md, medium, o, wi, 0.0f, h.t, maps->march_step, rng,
                                  tr_lane(SPM_TR_FINAL_GATHER, (uint)i));
@@ -350,10 +366,9 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       }
       if (m->type != SPM_MAT_DIFFUSE || !reflects_from(m, &y, wi)) break;
       const float3 n = facing_normal(&y, wi);
+      rng = own;
+      if (single) li += tr * direct_diffuse(s, &y, m, wi, medium, maps->march_step, rng);
       if (hop < SPM_GATHER_HOPS && reach < SPM_GATHER_NEAR * maps->radius) {
-        rng.event = (rng.event & ~255u) + SPM_GATHER_EVENT + hop;
-        if (maps->direct_terms && within_depth(segments + hop + 2u, max_depth))
-          li += tr * direct_diffuse(s, &y, m, wi, medium, maps->march_step, rng);
         tr *= load3(m->reflectance);
         li += tr * SPM_INV_PI *
               surface_estimate(&maps->caustic_grid, maps->caustic_flux, y.p, n, maps->radius, maps->density_kernel,

@@ -127,7 +127,7 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
-  if (skip_direct && !final_gather) {
+  if (skip_direct) {
     // Single scattering comes from next-event estimation (spm_gather.cl,
     // inscatter_nee): a volume record or beam at path vertex 1 has no
     // earlier event.
@@ -136,7 +136,7 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
     beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),
                 beams.end());
   }
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct && !final_gather, reach);
+  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct, reach);
   std::vector<SpmSurfaceRecord> caustic;
   if (final_gather) {
     for (const SpmSurfaceRecord& r : surface) {

@@ -81,12 +81,12 @@ struct MapParts {
 };
 
 // `surface` as the gather uses it (used_surface_records); with next-event
-// estimation (`skip_direct`) the volume records and beams of streams
-// without an earlier event (depth 1) are left out too. With a final gather
-// (`final_gather`, which comes with next-event estimation) the gather ray's
-// estimates need every record, so all stay, the camera's own vertex
-// leaving the direct ones out by their depth; the caustic grid then holds
-// the surface records flagged SPM_RECORD_CAUSTIC, read at that vertex.
+// estimation (`skip_direct`) the surface records, volume records and beams
+// of streams without an earlier event (depth 1) are left out, the final
+// gather's rays included (they estimate that light by next-event
+// estimation too, spm_gather.cl final_gather). With a final gather
+// (`final_gather`) the caustic grid holds the surface records flagged
+// SPM_RECORD_CAUSTIC, read at the camera's vertex.
 // Volume records outside volume_core(reach) go to a grid of their own (`outer`): in a
 // fog that fills all space they spread hundreds of radii beyond the scene,
 // and one grid over all of them, capped in cells, would have cells far
