@@ -203,6 +203,14 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
          arrival / pdf;
 }
 
+/* Single scattering along [t0, t1] by next-event estimation, in either
+ * kind of medium: the camera's segments and the gather rays' share it. */
+inline float3 medium_nee(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1, float step,
+                         SpmRng rng) {
+  return medium_is_heterogeneous(&s->md.media[medium]) ? inscatter_nee_heterogeneous(s, medium, o, d, t0, t1, step, rng)
+                                                       : inscatter_nee(s, medium, o, d, t0, t1, step, rng);
+}
+
 /* The beam radiance estimate over the volume records along [t0, t1]: the
  * records near the scene and those beyond it are in two grids, each record
  * in one (host/spm/map_grids.h), so the estimate is the sum of both. */
@@ -318,9 +326,10 @@ inline bool within_depth(uint segments, uint max_depth) { return max_depth == SP
  * caustic records read at the vertex itself (SPM_RECORD_CAUSTIC), so no
  * light is counted twice. Where the ray ends near its start
  * (SPM_GATHER_NEAR) its end is a vertex of the same kind: its caustic
- * records and the next gather ray instead of its surface estimate. `segments`: the path's segments up to the first vertex,
- * for max_depth (METHOD.md 10): the records read at the end of hop j's ray
- * have at most max_depth - segments - 1 - j vertices. */
+ * records and the next gather ray instead of its surface estimate.
+ * `segments`: the path's segments up to the first vertex, for max_depth
+ * (METHOD.md 10): the records read at the end of hop j's ray have at most
+ * max_depth - segments - 1 - j vertices. */
 inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf, float3 d, int medium,
                            uint segments, uint max_depth, SpmRng rng, uint* tests) {
   float3 tr = (float3)(1.0f);
@@ -347,9 +356,7 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
         const float t_end = hit ? h.t : SPM_INF;
         li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, t_end, 2u, depth_limit, tests);
         if (single) {
-          li += tr * (medium_is_heterogeneous(&s->md.media[medium])
-                          ? inscatter_nee_heterogeneous(s, medium, o, wi, 0.0f, t_end, maps->march_step, own)
-                          : inscatter_nee(s, medium, o, wi, 0.0f, t_end, maps->march_step, own));
+          li += tr * medium_nee(s, medium, o, wi, 0.0f, t_end, maps->march_step, own);
         }
       }
       if (!hit) break;
@@ -410,9 +417,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
                                   record_depth_limit(max_depth, specular), tests);
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
-        L += beta * (medium_is_heterogeneous(&s->md.media[medium])
-                         ? inscatter_nee_heterogeneous(s, medium, o, d, tmin, t_end, maps->march_step, rng)
-                         : inscatter_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng));
+        L += beta * medium_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng);
       }
     }
     /* Escaping: outside a medium there is no environment light in the
