@@ -11,7 +11,10 @@ with Mitsuba's volpath.
    volpath rendering chunks of samples for the same wall clock (the scene's
    integrator replaced as tools/reference.py does, another seed than the
    reference's), both judged against the reference, in the same run; table
-   (CSV and markdown) and plot. Times are rendering times: spm's own
+   (CSV and markdown) and plot. --repeats N runs each budget N times with
+   fresh seeds for both, alternating which goes first, and the table gives
+   the medians and the range of the per-run ratio: one run's relMSE spreads
+   by 20% or more, and the machine's speed drifts. Times are rendering times: spm's own
    "passes in X s" (device set-up, kernel build, scene loading and the scale
    pilot excluded; the whole command's wall clock is in the CSV) and
    Mitsuba's render loop after a one-sample warm-up that compiles its
@@ -113,6 +116,22 @@ def plot_sweep(rows, path, title):
     plt.close(fig)
 
 
+def median_rows(rows, budgets):
+    """Per budget, the median of each number over its runs, and the range of
+    the per-run ratio."""
+    import statistics
+    out = []
+    for b in budgets:
+        runs = [r for r in rows if r["budget"] == b]
+        m = {k: statistics.median(r[k] for r in runs)
+             for k in ("spm_passes", "spm_seconds", "spm_relmse", "mitsuba_spp", "mitsuba_seconds", "mitsuba_relmse",
+                       "ratio")}
+        m.update(budget=b, runs=len(runs), ratio_min=min(r["ratio"] for r in runs),
+                 ratio_max=max(r["ratio"] for r in runs))
+        out.append(m)
+    return out
+
+
 def plot_equal_time(rows, path, title):
     import matplotlib
     matplotlib.use("Agg")
@@ -148,9 +167,14 @@ def main() -> int:
                    help="equal-time budgets in seconds; empty: no equal-time comparison (default %(default)s)")
     p.add_argument("--seed", type=int, default=1, help="spm seed, and Mitsuba's base seed + 1000 (default 1)")
     p.add_argument("--max-depth", type=int, default=64, help="Mitsuba volpath max_depth (default 64)")
+    p.add_argument("--repeats", type=int, default=1,
+                   help="equal-time runs per budget, each renderer with seeds of its own, alternating which goes "
+                        "first; the table gives medians (default %(default)s)")
     p.add_argument("--summary-dir", type=Path, default=None,
                    help="also copy the plots and the markdown table here as SCENE_*.png / SCENE_*.md")
     args = p.parse_args()
+    if args.repeats < 1:
+        p.error("--repeats must be at least 1")
     log = lambda *a: print("convergence:", *a, file=sys.stderr, flush=True)  # noqa: E731
 
     import numpy as np
@@ -204,37 +228,60 @@ def main() -> int:
             raise SystemExit(f"convergence: Mitsuba's film is {film[0]}x{film[1]} but the reference is "
                              f"{res[0]}x{res[1]}: pass -D res=...")
         reference.render(scene, 1, 999, 1, 0.0, lambda *a: None)  # compile the kernels
-        # Mitsuba's time per sample, so that its chunks of samples take about a
-        # tenth of each budget: every chunk is a launch of its own, so chunks
-        # of the scene's sample count (1 to 4 here) cost it samples, and one
-        # chunk must not overrun the budget.
-        _, probe_spp, probe_s = reference.render(scene, 16, 998, 16, 0.0, lambda *a: None)
-        per_spp = probe_s / probe_spp
+        # Mitsuba's time per launch and per sample, from two probes: each
+        # chunk of samples is a launch of its own (about 30 ms each for
+        # cornell_fog at 64x64, 2 cores), so a time per sample taken from one
+        # small probe would make the chunks too small and cost Mitsuba
+        # samples. Chunks take about a tenth of a budget, and its tail is
+        # filled with smaller ones (reference.render).
+        _, _, t_small = reference.render(scene, 16, 998, 16, 0.0, lambda *a: None)
+        _, _, t_large = reference.render(scene, 128, 997, 128, 0.0, lambda *a: None)
+        per_spp = max(1e-9, (t_large - t_small) / 112.0)
+        overhead = max(0.0, t_small - 16.0 * per_spp)
+        log(f"Mitsuba: {1e3 * overhead:.1f} ms per launch, {1e3 * per_spp:.3f} ms per sample")
         for b in budgets:
-            exr = out / f"equal_spm_{b:g}s.exr"
-            r = run_spm(spm, args.scene, exr, res, 0, "bre", args.seed + 100, args.defines, args.spm_arg, log,
-                        budget=b)
-            ms = compare.metrics(compare.load_exr(exr), ref)
             chunk = max(1, min(4096, 2 ** int(math.floor(math.log2(max(1.0, 0.1 * b / per_spp))))))
-            img, spp_done, secs = reference.render(scene, 0, args.seed + 1000, chunk, b, lambda *a: None)
-            mm = compare.metrics(img.astype(np.float64), ref)
-            log(f"budget {b:g} s: spm {r['passes']} passes {r['seconds']:.2f} s relMSE {ms['relmse']:.4g}; "
-                f"Mitsuba {spp_done} spp {secs:.2f} s relMSE {mm['relmse']:.4g}")
-            reference.write_exr(out / f"equal_mitsuba_{b:g}s.exr", img)
-            et_rows.append({"budget": b, "spm_passes": r["passes"], "spm_seconds": r["seconds"],
-                            "spm_wall": r["wall"],
-                            "spm_relmse": ms["relmse"], "spm_mean_ratio": ms["mean_ratio_all"],
-                            "mitsuba_spp": spp_done, "mitsuba_seconds": secs, "mitsuba_relmse": mm["relmse"],
-                            "mitsuba_mean_ratio": mm["mean_ratio_all"], "variant": variant})
+            for rep in range(args.repeats):
+                exr = out / (f"equal_spm_{b:g}s.exr" if args.repeats == 1 else f"equal_spm_{b:g}s_{rep}.exr")
+                # Alternate which renderer goes first, so that a drift in the
+                # machine's speed does not fall on one of them.
+                def spm_run():
+                    return run_spm(spm, args.scene, exr, res, 0, "bre", args.seed + 100 + rep, args.defines,
+                                   args.spm_arg, log, budget=b)
+
+                def mitsuba_run():
+                    return reference.render(scene, 0, args.seed + 1000 + rep, chunk, b, lambda *a: None, overhead)
+
+                if rep % 2 == 0:
+                    r = spm_run()
+                    img, spp_done, secs = mitsuba_run()
+                else:
+                    img, spp_done, secs = mitsuba_run()
+                    r = spm_run()
+                ms = compare.metrics(compare.load_exr(exr), ref)
+                mm = compare.metrics(img.astype(np.float64), ref)
+                log(f"budget {b:g} s, run {rep + 1}/{args.repeats}: spm {r['passes']} passes {r['seconds']:.2f} s "
+                    f"relMSE {ms['relmse']:.4g}; Mitsuba {spp_done} spp {secs:.2f} s relMSE {mm['relmse']:.4g}")
+                reference.write_exr(exr.with_name(exr.name.replace("equal_spm_", "equal_mitsuba_")), img)
+                et_rows.append({"budget": b, "run": rep, "spm_passes": r["passes"], "spm_seconds": r["seconds"],
+                                "spm_wall": r["wall"],
+                                "spm_relmse": ms["relmse"], "spm_mean_ratio": ms["mean_ratio_all"],
+                                "mitsuba_spp": spp_done, "mitsuba_seconds": secs, "mitsuba_relmse": mm["relmse"],
+                                "mitsuba_mean_ratio": mm["mean_ratio_all"], "variant": variant,
+                                "ratio": ms["relmse"] / mm["relmse"]})
         write_csv(out / "equal_time.csv", et_rows, list(et_rows[0].keys()))
-        plot_equal_time(et_rows, out / "equal_time.png", f"{name} {res[0]}x{res[1]}: equal time")
-        md += ["", f"Equal time (spm bre vs Mitsuba {mi.__version__} volpath, {variant}, 2 cores):", "",
-               "| budget s | spm passes | spm s | spm command s | spm relMSE | Mitsuba spp | Mitsuba s | "
-               "Mitsuba relMSE |",
+        med = median_rows(et_rows, budgets)
+        plot_equal_time(med, out / "equal_time.png", f"{name} {res[0]}x{res[1]}: equal time")
+        md += ["", f"Equal time (spm bre vs Mitsuba {mi.__version__} volpath, {variant}, 2 cores; "
+               f"{args.repeats} run(s) per budget, medians, the ratio the median of each run's "
+               f"spm / Mitsuba relMSE; Mitsuba {1e3 * overhead:.1f} ms per launch, "
+               f"{1e3 * per_spp:.3f} ms per sample):", "",
+               "| budget s | spm passes | spm s | spm relMSE | Mitsuba spp | Mitsuba s | Mitsuba relMSE | "
+               "ratio (min-max) |",
                "|---|---|---|---|---|---|---|---|"]
-        md += [f"| {r['budget']:g} | {r['spm_passes']} | {r['spm_seconds']:.2f} | {r['spm_wall']:.2f} | "
-               f"{r['spm_relmse']:.4g} | "
-               f"{r['mitsuba_spp']} | {r['mitsuba_seconds']:.2f} | {r['mitsuba_relmse']:.4g} |" for r in et_rows]
+        md += [f"| {r['budget']:g} | {r['spm_passes']:g} | {r['spm_seconds']:.2f} | {r['spm_relmse']:.4g} | "
+               f"{r['mitsuba_spp']:g} | {r['mitsuba_seconds']:.2f} | {r['mitsuba_relmse']:.4g} | "
+               f"{r['ratio']:.2f} ({r['ratio_min']:.2f}-{r['ratio_max']:.2f}) |" for r in med]
     (out / "summary.md").write_text("\n".join(md) + "\n")
     (out / "summary.json").write_text(json.dumps({"sweep": rows, "equal_time": et_rows}, indent=2) + "\n")
     print("\n".join(md))

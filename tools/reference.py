@@ -242,11 +242,14 @@ def load_scene(scene_path: Path, text: str, defines: dict):
     return mi.load_string(text, **defines)
 
 
-def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log):
+def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log, overhead: float = 0.0):
     """Renders `spp` samples per pixel in chunks of at most `chunk_spp` (each
     an independent mi.render with its own seed) and averages them; with a
-    time budget, renders chunks until the next one would overrun it. Returns
-    (image as float32 HxWx3 numpy array, spp rendered, render seconds)."""
+    time budget, renders chunks until the budget is spent: a chunk that would
+    overrun it is halved until it fits, its time predicted from the last
+    chunk's as `overhead` (seconds per launch) plus a time per sample, so
+    that the budget's tail is not left unused. Returns (image as float32
+    HxWx3 numpy array, spp rendered, render seconds)."""
     import mitsuba as mi
     import numpy as np
     acc = None
@@ -254,12 +257,17 @@ def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log):
     chunks = 0
     start = time.perf_counter()
     last = 0.0
+    last_n = 1
     while True:
         if time_budget > 0:
             elapsed = time.perf_counter() - start
-            if done > 0 and elapsed + last > time_budget:
-                break
             n = chunk_spp
+            if done > 0:
+                per_spp = max(0.0, last - overhead) / last_n
+                while n > 1 and elapsed + overhead + per_spp * n > time_budget:
+                    n //= 2
+                if elapsed + overhead + per_spp * n > time_budget:
+                    break
         else:
             if done >= spp:
                 break
@@ -267,6 +275,7 @@ def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log):
         t0 = time.perf_counter()
         img = np.array(mi.render(scene, spp=n, seed=seed * 1000003 + chunks), dtype=np.float64)
         last = time.perf_counter() - t0
+        last_n = n
         acc = img * n if acc is None else acc + img * n
         done += n
         chunks += 1
