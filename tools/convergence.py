@@ -281,7 +281,7 @@ def main() -> int:
                "|---|---|---|---|---|---|---|---|"]
         md += [f"| {r['budget']:g} | {r['spm_passes']:g} | {r['spm_seconds']:.2f} | {r['spm_relmse']:.4g} | "
                f"{r['mitsuba_spp']:g} | {r['mitsuba_seconds']:.2f} | {r['mitsuba_relmse']:.4g} | "
-               f"{r['ratio']:.2f} ({r['ratio_min']:.2f}-{r['ratio_max']:.2f}) |" for r in med]
+               f"{r['ratio']:.2g} ({r['ratio_min']:.2g}-{r['ratio_max']:.2g}) |" for r in med]
     (out / "summary.md").write_text("\n".join(md) + "\n")
     (out / "summary.json").write_text(json.dumps({"sweep": rows, "equal_time": et_rows}, indent=2) + "\n")
     print("\n".join(md))
