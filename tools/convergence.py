@@ -14,8 +14,8 @@ with Mitsuba's volpath.
    (CSV and markdown) and plot. --repeats N runs each budget N times with
    fresh seeds for both, alternating which goes first, and the table gives
    the medians and the range of the per-run ratio: one run's relMSE spreads
-   by 20% or more, and the machine's speed drifts. Times are rendering times: spm's own
-   "passes in X s" (device set-up, kernel build, scene loading and the scale
+   by 20% or more, and the machine's speed drifts. Times are rendering
+   times: spm's own "passes in X s" (device set-up, kernel build, scene loading and the scale
    pilot excluded; the whole command's wall clock is in the CSV) and
    Mitsuba's render loop after a one-sample warm-up that compiles its
    kernels.
@@ -229,8 +229,8 @@ def main() -> int:
                              f"{res[0]}x{res[1]}: pass -D res=...")
         reference.render(scene, 1, 999, 1, 0.0, lambda *a: None)  # compile the kernels
         # Mitsuba's time per launch and per sample, from two probes: each
-        # chunk of samples is a launch of its own (about 30 ms each for
-        # cornell_fog at 64x64, 2 cores), so a time per sample taken from one
+        # chunk of samples is a launch of its own (14-20 ms each for the
+        # scenes here at 64x64, 2 cores), so a time per sample taken from one
         # small probe would make the chunks too small and cost Mitsuba
         # samples. Chunks take about a tenth of a budget, and its tail is
         # filled with smaller ones (reference.render).
