@@ -75,14 +75,6 @@ const char* const kBuildOptions = "-cl-std=CL1.2 -cl-kernel-arg-info";
 std::string describe(const cl::Error& e) { return std::string(e.what()) + ": " + cl_error_name(e.err()); }
 
 std::vector<DeviceInfo> list_devices() {
-  // PoCL runs a work-group on a CPU as loops over its work-items. The
-  // gather's per-item loops branch too much for its default ("loopvec")
-  // to vectorise, and as continuation-based regions ("cbs") they run
-  // 10-20% faster (README, "Where the time goes"). Set before the first
-  // OpenCL call, once; other platforms ignore the variable, and a user's
-  // own setting wins.
-  static const bool pocl_method = ::setenv("POCL_WORK_GROUP_METHOD", "cbs", 0) == 0;
-  (void)pocl_method;
   std::vector<cl::Platform> platforms;
   // ocl-icd returns CL_PLATFORM_NOT_FOUND_KHR when no ICD is installed: no devices.
   if (cl::Platform::get(&platforms) != CL_SUCCESS) return {};
