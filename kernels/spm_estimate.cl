@@ -4,7 +4,9 @@
  * xyz + t1); spm_stream_beam_test likewise over stream beams.
  * spm_surface_test: one per query point (xyz) with normal (xyz).
  * spm_shared_surface_test: one work-item through all the queries in order,
- * as a pixel's samples are, each with its own record depth limit. */
+ * as a block's samples are, each with its own record depth limit;
+ * spm_shared_beam_test likewise through ray segments, each with its own
+ * maximum record depth (volume_reuse_hit). */
 #include "spm_types.h"
 #include "lib/estimate.h"
 
@@ -66,5 +68,28 @@ __kernel void spm_shared_surface_test(const __global SpmGridInfo* info, const __
     out[i] = (float4)(pixel_surface_estimate(&reuse, &grid, item_flux, points[i].xyz, normals[i].xyz, radius,
                                              density_kernel, depth_limits[i]),
                       0.0f);
+  }
+}
+
+__kernel void spm_shared_beam_test(const __global SpmGridInfo* info, const __global uint* cell_start,
+                                   const __global float4* item_pos, const __global uint* items,
+                                   const __global SpmVolumeRecord* records, const __global SpmMedium* media,
+                                   const __global float4* origins, const __global float4* directions,
+                                   const __global uint* depth_limits, __global float4* out, uint count, int medium,
+                                   float radius, uint density_kernel) {
+  if (get_global_id(0) != 0) return;
+  const SpmGrid grid = make_grid(info, cell_start, item_pos);
+  SpmMediumTable homogeneous;
+  homogeneous.n = 0;
+  SpmVolumeReuse reuse = volume_reuse_empty();
+  for (uint i = 0; i < count; ++i) {
+    const float3 o = origins[i].xyz, d = directions[i].xyz;
+    const float t0 = origins[i].w, t1 = directions[i].w;
+    uint tests = 0;
+    if (!volume_reuse_hit(&reuse, o, d, t0, t1, medium, 0u, depth_limits[i], radius)) {
+      reuse.L = beam_estimate(&grid, items, records, media, medium, o, d, t0, t1, radius, density_kernel,
+                              SPM_ESTIMATOR_BRE, 0u, depth_limits[i], &homogeneous, &tests);
+    }
+    out[i] = (float4)(reuse.L, (float)tests);
   }
 }

@@ -1,5 +1,5 @@
-/* spm_gather: one work-item per pixel, spp camera samples each (METHOD.md 5;
- * paper 3.2, eq. 4). From: camera, photon maps and their grids. To: the
+/* spm_gather: one work-item per block of 2x2 pixels, spp camera samples per
+ * pixel (METHOD.md 5; paper 3.2, eq. 4). From: camera, photon maps and their grids. To: the
  * pass's film (mean radiance of the pixel's samples).
  *
  * A camera ray through the pixel filter follows specular chains (mirror,
@@ -281,6 +281,17 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
   return records_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
 }
 
+/* The camera segment's volume estimate, shared by a block's samples
+ * (volume_reuse_hit, lib/estimate.h). */
+inline float3 camera_volume_estimate(SpmVolumeReuse* reuse, const SpmScene* s, const SpmMaps* maps, int medium,
+                                     float3 o, float3 d, float t0, float t1, uint min_depth, uint max_depth,
+                                     uint* tests) {
+  if (volume_reuse_hit(reuse, o, d, t0, t1, medium, min_depth, max_depth, maps->radius)) return reuse->L;
+  const float3 L = volume_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
+  if (!isinf(t1)) reuse->L = L;
+  return L;
+}
+
 /* Specular vertices a camera path follows at most: a safety cap, so that
  * the vertices of a sample (null crossings included, at most 4 per specular
  * one) fit the block of 256 RNG events each sample has. */
@@ -399,11 +410,13 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
  * specular + 1 segments, direct light at the diffuse vertex that ends the
  * chain specular + 2. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
-                       float tmin, float tmax, uint max_depth, SpmRng rng, SpmSurfaceReuse* reuse, uint* tests) {
+                       float tmin, float tmax, uint max_depth, SpmRng rng, SpmSurfaceReuse* reuse,
+                       SpmVolumeReuse* volume_reuse, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
   int medium = cam->medium;
   uint specular = 0;
+  bool crossed_medium = false;
   const uint first_event = rng.event;
   for (uint vertex = 0; vertex < 4u * SPM_MAX_CAMERA_SPECULAR + 4u; ++vertex) {
     rng.event = first_event + vertex;
@@ -413,8 +426,14 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     if (medium >= 0) {
       /* With next-event estimation single scattering (depth 1) is its. */
       const uint min_depth = maps->direct == SPM_DIRECT_NEE ? 2u : 0u;
-      L += beta * volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth,
-                                  record_depth_limit(max_depth, specular), tests);
+      const uint depth_limit = record_depth_limit(max_depth, specular);
+      /* The first medium segment of the straight camera ray is shared
+       * (camera_volume_estimate); null boundaries before it leave it straight. */
+      const bool first = specular == 0u && !crossed_medium;
+      crossed_medium = true;
+      L += beta * (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth,
+                                                    depth_limit, tests)
+                           : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
         L += beta * medium_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng);
@@ -472,14 +491,26 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
   return L;
 }
 
+/* Pixels are gathered in blocks of SPM_GATHER_BLOCK x SPM_GATHER_BLOCK, one
+ * block per work-item (spm_types.h), so that neighbouring pixels' samples share surface estimates
+ * too (pixel_surface_estimate, lib/estimate.h): at 1 sample per pixel the
+ * 2x2 pixels' vertices then read one disk instead of four while the disk
+ * spans several pixels. */
 __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __global SpmCamera* camera,
                          __global float4* film, __global uint* sphere_tests, __global uint* errors, uint first_pixel,
                          uint count SPM_MAP_PARAMS) {
   /* A tile of `count` pixels from first_pixel: the film of a whole image may
-   * not fit one allocation. */
+   * not fit one allocation. A block that straddles the tile's ends is
+   * gathered whole and writes only its pixels in the tile, so that every
+   * pixel's value, reuse included, is the same however the image is tiled. */
+  const uint width = camera->width;
+  const uint blocks_x = (width + SPM_GATHER_BLOCK - 1u) / SPM_GATHER_BLOCK;
+  const uint block_row0 = first_pixel / width / SPM_GATHER_BLOCK;
+  const uint last = first_pixel + count - 1u;
   const uint item = get_global_id(0);
-  if (item >= count) return;
-  const uint pixel = first_pixel + item;
+  if (item >= (last / width / SPM_GATHER_BLOCK - block_row0 + 1u) * blocks_x) return;
+  const uint bx = item % blocks_x;
+  const uint by = block_row0 + item / blocks_x;
   const SpmScene s = SPM_SCENE;
   SpmMaps maps;
   maps.volume_grid = make_grid(volume_info, volume_start, volume_pos);
@@ -504,26 +535,32 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.estimator = params.estimator;
   maps.direct = params.direct;
   maps.direct_terms = params.direct_terms;
-  uint tests = 0;
-  const uint px = pixel % camera->width;
-  const uint py = pixel / camera->width;
-  float3 sum = (float3)(0.0f);
   SpmSurfaceReuse reuse = surface_reuse_empty();
-  for (uint i = 0; i < params.spp; ++i) {
-    /* Event index: a block of 256 per sample, one per path vertex. */
-    SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);
-    rng.sample = params.first_sample + i;
-    rng.strata = params.strata_seed;
-    const float2 u = stratify2(rng, SPM_RNG_CAMERA, 0u);
-    const float2 off = sample_filter(camera, u.x, u.y);
-    float3 o;
-    float tmin, tmax;
-    const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
-    sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, rng, &reuse, &tests);
+  SpmVolumeReuse volume_reuse = volume_reuse_empty();
+  for (uint q = 0; q < SPM_GATHER_BLOCK * SPM_GATHER_BLOCK; ++q) {
+    const uint px = SPM_GATHER_BLOCK * bx + q % SPM_GATHER_BLOCK;
+    const uint py = SPM_GATHER_BLOCK * by + q / SPM_GATHER_BLOCK;
+    if (px >= width || py >= camera->height) continue;
+    const uint pixel = py * width + px;
+    uint tests = 0;
+    float3 sum = (float3)(0.0f);
+    for (uint i = 0; i < params.spp; ++i) {
+      /* Event index: a block of 256 per sample, one per path vertex. */
+      SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);
+      rng.sample = params.first_sample + i;
+      rng.strata = params.strata_seed;
+      const float2 u = stratify2(rng, SPM_RNG_CAMERA, 0u);
+      const float2 off = sample_filter(camera, u.x, u.y);
+      float3 o;
+      float tmin, tmax;
+      const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
+      sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, rng, &reuse, &volume_reuse, &tests);
+    }
+    if (pixel < first_pixel || pixel > last) continue;
+    /* A NaN or infinity is a bug to find, not a value to clamp: the host
+     * fails the render when this bit is set. */
+    if (!all(isfinite(sum))) atomic_or(errors, SPM_ERROR_NONFINITE);
+    film[pixel - first_pixel] = (float4)(sum / (float)params.spp, 1.0f);
+    sphere_tests[pixel - first_pixel] = tests;
   }
-  /* A NaN or infinity is a bug to find, not a value to clamp: the host fails
-   * the render when this bit is set. */
-  if (!all(isfinite(sum))) atomic_or(errors, SPM_ERROR_NONFINITE);
-  film[item] = (float4)(sum / (float)params.spp, 1.0f);
-  sphere_tests[item] = tests;
 }

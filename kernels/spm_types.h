@@ -37,6 +37,10 @@ typedef float spm_float;
 #define SPM_DIRECT_NEE 0u          /* direct light on surfaces by shadow rays */
 #define SPM_DIRECT_PHOTONS 1u      /* direct light from the photon map only */
 
+/* spm_gather's work-item gathers a block of SPM_GATHER_BLOCK x
+ * SPM_GATHER_BLOCK pixels (spm_gather.cl); the host launches one per block. */
+#define SPM_GATHER_BLOCK 2u
+
 /* Primitive kinds (SpmPrim.kind). */
 #define SPM_PRIM_TRIANGLE 0u
 #define SPM_PRIM_SPHERE 1u

@@ -172,6 +172,86 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   EXPECT_GT(nonzero, n / 2);
 }
 
+// A block's camera samples share the volume estimate along their first
+// segment (volume_reuse_hit): a segment whose two ends lie within 0.25 r of
+// the last estimated segment's, with the same record depths, reads it; any
+// other sums its own records.
+TEST(BeamEstimate, ABlocksSegmentsShareOnlyANearbyEstimate) {
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> pos(-10.0f, 10.0f), flux(0.0f, 2.0f), unit(-1.0f, 1.0f);
+  const SpmMedium medium = spm::test::coloured_medium();
+  std::vector<SpmVolumeRecord> records(40000);
+  for (auto& r : records) {
+    for (int c = 0; c < 3; ++c) {
+      r.position[c] = pos(rng);
+      r.flux[c] = flux(rng);
+    }
+    const glm::vec3 d = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)) + glm::vec3(1e-3f));
+    for (int c = 0; c < 3; ++c) r.direction[c] = d[c];
+    r.medium = 0;
+    r.depth = 1 + rng() % 6;
+  }
+  const float radius = 1.0f;
+  const int kernel = 1;  // Epanechnikov: the estimate moves with the segment
+  const dvec3 o(-8, 0.1, 0.2), x(1, 0, 0);
+  const auto dir = [&](double dy) { return glm::normalize(dvec3(1, dy, 0)); };
+  struct Segment {
+    dvec3 o, d;
+    double t0, t1;
+    uint32_t limit;
+    int shares;  // the segment whose estimate this one reads; -1: its own
+  };
+  // The ray along x from o to 16 and rays turned by small angles: at
+  // t = 16 a turn of dy moves the end by about 16 dy.
+  const std::vector<Segment> q = {{o, x, 0.0, 16.0, SPM_NONE, -1},
+                                  {o, dir(0.012), 0.0, 16.0, SPM_NONE, 0},  // end 0.19 r away: shared
+                                  {o, dir(0.02), 0.0, 16.0, SPM_NONE, -1},  // end 0.32 r from segment 0's
+                                  {o, dir(0.02), 0.0, 16.3, SPM_NONE, -1},  // 0.3 r longer, same start
+                                  {o, dir(0.02), 0.0, 16.3, 3u, -1},        // another depth limit
+                                  {o + dvec3(0, 0, 0.1), dir(0.02), 0.0, 16.3, 3u, 4},  // both ends 0.1 r away
+                                  {o - dvec3(0, 0, 0.15), dir(0.02), 0.0, 16.3, 3u, 4},  // 0.15 r from 4
+                                  {o, dir(0.02), 0.0, 1e30, 3u, -1}};        // escaping: its own
+  std::vector<cl_float4> origins, dirs;
+  std::vector<cl_uint> limits;
+  for (const auto& e : q) {
+    const float t1 = e.t1 > 1e29 ? std::numeric_limits<float>::infinity() : float(e.t1);
+    origins.push_back(cl_float4{{float(e.o.x), float(e.o.y), float(e.o.z), float(e.t0)}});
+    dirs.push_back(cl_float4{{float(e.d.x), float(e.d.y), float(e.d.z), t1}});
+    limits.push_back(e.limit);
+  }
+  auto& dev = spm::test::device();
+  const VolumeBuffers u = upload(dev, records, radius);
+  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{medium});
+  const int n = int(q.size());
+  const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs),
+                   lb = dev.upload("depth_limits", limits);
+  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_beam_test");
+  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
+                spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
+                spm::arg("origins", ob), spm::arg("directions", db), spm::arg("depth_limits", lb),
+                spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)),
+                spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
+  dev.launch(k, 1);
+  const auto got = dev.download<cl_float4>(out, n);
+  for (int i = 0; i < n; ++i) {
+    const double t1 = q[i].t1 > 1e29 ? 1e30 : q[i].t1;
+    const dvec3 own = beam_reference(records, medium, 0, q[i].o, q[i].d, q[i].t0, t1, radius, kernel, 0, 0u,
+                                     q[i].limit);
+    for (int c = 0; c < 3; ++c) {
+      if (q[i].shares < 0) {
+        EXPECT_NEAR(got[i].s[c], own[c], 1e-4 * own[c] + 1e-9) << "segment " << i << " sums its own records";
+      } else {
+        EXPECT_EQ(got[i].s[c], got[q[i].shares].s[c]) << "segment " << i << " reads segment " << q[i].shares << "'s";
+        // Its own records would have given another value: the sharing is seen.
+        EXPECT_GT(std::abs(own[c] - got[i].s[c]), 1e-3 * own[c]) << "segment " << i;
+      }
+    }
+  }
+  // Each segment that sums its own records differs from the one before it.
+  for (int i : {2, 3, 4}) EXPECT_GT(std::abs(got[i].s[0] - got[i - 1].s[0]), 1e-3 * got[i].s[0]) << i;
+}
+
 // Depth limits: none, and 2 .. 3 of the records' depths 1 .. 6.
 INSTANTIATE_TEST_SUITE_P(KernelsAndEstimators, BeamEstimate,
                          ::testing::Combine(::testing::Values(0, 1), ::testing::Values(0, 1),

@@ -86,7 +86,7 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       settings_(settings),
       gpu_(device, tables),
       propagator_(device, gpu_, batch_settings(device, gpu_, scene, settings)),
-      gather_(device, gpu_, size_t(settings.width) * settings.height,
+      gather_(device, gpu_, size_t(settings.width), size_t(settings.width) * settings.height,
               (after_scene(device, gpu_) - std::min(after_scene(device, gpu_), propagator_.bytes())) / 4),
       density_kernel_(kDensityKernelOption.code(scene.integrator.density_kernel)),
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),

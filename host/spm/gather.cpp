@@ -16,9 +16,10 @@ size_t tile_size(const Device& device, size_t pixels, size_t share) {
 
 }  // namespace
 
-Gather::Gather(Device& device, const GpuScene& scene, size_t pixels, size_t share)
+Gather::Gather(Device& device, const GpuScene& scene, size_t width, size_t pixels, size_t share)
     : device_(device),
       scene_(scene),
+      width_(width),
       pixels_(pixels),
       tile_(tile_size(device, pixels, share)),
       kernel_(device.kernel("spm_gather", "spm_gather")),
@@ -37,7 +38,10 @@ uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::
     set_args(kernel_, scene_, arg("params", params), arg("camera", scene_.camera()), arg("film", film_),
              arg("sphere_tests", sphere_tests_), arg("errors", errors_), arg("first_pixel", cl_uint(first)),
              arg("count", cl_uint(count)), grids);
-    device_.launch(kernel_, count);
+    // A work-item per block of SPM_GATHER_BLOCK^2 pixels, over the block
+    // rows the tile touches (spm_gather.cl).
+    const size_t block_rows = (first + count - 1) / width_ / SPM_GATHER_BLOCK - first / width_ / SPM_GATHER_BLOCK + 1;
+    device_.launch(kernel_, block_rows * ((width_ + SPM_GATHER_BLOCK - 1) / SPM_GATHER_BLOCK));
     const auto film = device_.download<cl_float4>(film_, count);
     for (size_t i = 0; i < count; ++i) {
       for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];

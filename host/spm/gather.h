@@ -18,10 +18,10 @@ class Gather {
   // Device bytes per pixel of a tile: its film entry and sphere-test count.
   static constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uint);
 
-  // An image of `pixels` pixels, gathered in launches of at most kMaxTile
-  // pixels whose buffers fit the device's largest allocation and `share`
-  // bytes of its memory.
-  Gather(Device& device, const GpuScene& scene, size_t pixels, size_t share);
+  // An image `width` pixels wide of `pixels` pixels, gathered in launches of
+  // at most kMaxTile pixels whose buffers fit the device's largest
+  // allocation and `share` bytes of its memory.
+  Gather(Device& device, const GpuScene& scene, size_t width, size_t pixels, size_t share);
 
   size_t bytes() const { return tile_ * kBytesPerPixel + sizeof(cl_uint); }
 
@@ -35,7 +35,7 @@ class Gather {
  private:
   Device& device_;
   const GpuScene& scene_;
-  size_t pixels_ = 0, tile_ = 0;
+  size_t width_ = 0, pixels_ = 0, tile_ = 0;
   cl::Kernel kernel_;
   DeviceBuffer film_, sphere_tests_, errors_;
 };

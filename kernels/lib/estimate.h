@@ -223,17 +223,18 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
   return sum;
 }
 
-/* The surface estimate a pixel's samples share (one per work-item). A
- * sample whose diffuse vertex lies within SPM_REUSE_DISTANCE r of the point
- * the last estimate was made at, on a surface facing the same way, with the
- * same record depth limit, reads that estimate instead of summing the disk
- * again: the disk of radius r is far larger than the pixel's footprint once
- * r spans several pixels (Fig. 3 (b): a pixel is 0.16 r), so the estimates
- * at the pixel's samples differ by the few records at the disks' rims, and
- * the pixel's mean is the estimate of a kernel of radius at most
- * (1 + SPM_REUSE_DISTANCE) r centred in the pixel. The reach scales with r,
- * so as the passes shrink r below a few pixels the reuse stops and the
- * estimate stays consistent (METHOD.md 5). */
+/* The surface estimate the samples of a block of pixels share (one block
+ * per work-item, spm_gather.cl). A sample whose diffuse vertex lies within
+ * SPM_REUSE_DISTANCE r of the point the last estimate was made at, on a
+ * surface facing the same way, with the same record depth limit, reads
+ * that estimate instead of summing the disk again: the disk of radius r is
+ * far larger than a pixel's footprint once r spans several pixels (Fig. 3
+ * (b): a pixel is 0.13 r on the back wall), so the estimates at the block's
+ * samples differ by the few records at the disks' rims, and each sample
+ * reads an estimate whose disk lies within (1 + SPM_REUSE_DISTANCE) r of
+ * its own vertex. The reach scales with r, so as the passes shrink r below
+ * a few pixels the reuse stops and the estimate stays consistent
+ * (METHOD.md 5). */
 #define SPM_REUSE_DISTANCE 0.25f
 #define SPM_REUSE_COS 0.999f
 
@@ -260,6 +261,50 @@ inline float3 pixel_surface_estimate(SpmSurfaceReuse* reuse, const SpmGrid* grid
   reuse->depth_limit = depth_limit;
   reuse->flux = surface_estimate(grid, item_flux, x, n, r, density_kernel, depth_limit);
   return reuse->flux;
+}
+
+/* The volume estimate along a camera ray's first medium segment, shared
+ * by a block's samples in the same way (spm_gather.cl): a segment whose two
+ * ends lie within SPM_REUSE_DISTANCE r of the last estimated segment's, in
+ * the same medium with the same record depths, reads that estimate. Both
+ * segments are straight, so every point of one lies within that distance
+ * of the other, and the records the two estimates read differ only at the
+ * rims of their cylinders of radius r. As with surfaces the reach scales
+ * with r, so the reuse stops once r spans a few pixels' footprint and the
+ * estimate stays consistent. A segment that escapes (t1 infinite) is never
+ * shared. */
+typedef struct SpmVolumeReuse {
+  float3 a, b, L; /* the segment's ends and its estimate */
+  int medium;     /* -2 marks an empty entry: no segment has it */
+  uint min_depth, max_depth;
+} SpmVolumeReuse;
+
+inline SpmVolumeReuse volume_reuse_empty(void) {
+  SpmVolumeReuse r;
+  r.a = r.b = r.L = (float3)(0.0f);
+  r.medium = -2;
+  r.min_depth = r.max_depth = 0u;
+  return r;
+}
+
+/* Whether segment [t0, t1] of o + t d may read reuse->L; if not, and the
+ * segment ends, the entry now describes it and the caller stores its
+ * estimate in reuse->L. */
+inline bool volume_reuse_hit(SpmVolumeReuse* reuse, float3 o, float3 d, float t0, float t1, int medium,
+                             uint min_depth, uint max_depth, float r) {
+  if (isinf(t1)) return false;
+  const float3 a = o + t0 * d, b = o + t1 * d;
+  const float reach = SPM_REUSE_DISTANCE * r;
+  const float3 da = a - reuse->a, db = b - reuse->b;
+  if (reuse->medium == medium && reuse->min_depth == min_depth && reuse->max_depth == max_depth &&
+      dot(da, da) < reach * reach && dot(db, db) < reach * reach)
+    return true;
+  reuse->a = a;
+  reuse->b = b;
+  reuse->medium = medium;
+  reuse->min_depth = min_depth;
+  reuse->max_depth = max_depth;
+  return false;
 }
 
 #endif
