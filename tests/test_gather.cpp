@@ -102,10 +102,19 @@ struct SurfaceBuffers {
   cl::Buffer info, start, pos, flux;
 };
 
-SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& records, const spm::RecordGrid& grid) {
+// Every record of `records`, as used_surface_records would list them.
+std::vector<uint32_t> all_of(const std::vector<SpmSurfaceRecord>& records) {
+  std::vector<uint32_t> used(records.size());
+  for (size_t i = 0; i < used.size(); ++i) used[i] = uint32_t(i);
+  return used;
+}
+
+// A grid over records[used[i]] (surface_grid or another point grid).
+SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& records,
+                      const std::vector<uint32_t>& used, const spm::RecordGrid& grid) {
+  const spm::SurfaceItems items = spm::surface_items(grid, records.data(), used);
   return {dev.upload("surface_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("surface_start", grid.cell_start),
-          dev.upload("surface_pos", spm::surface_item_positions(grid, records)),
-          dev.upload("surface_flux", spm::surface_item_flux(grid, records))};
+          dev.upload("surface_pos", items.pos), dev.upload("surface_flux", items.flux)};
 }
 
 // spm_surface_test's arguments, by name.
@@ -381,12 +390,12 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
         // Records deeper than the limit are left out (METHOD.md 10).
         const uint32_t max_depth = skip ? 3u : SPM_NONE;
         // The gather's grid holds only the records it uses (used_surface_records).
-        const auto used = spm::used_surface_records(records, skip);
+        const auto used = spm::used_surface_records(records.data(), records.size(), skip);
         std::vector<glm::vec3> centres;
-        for (const auto& r : used) centres.emplace_back(r.position[0], r.position[1], r.position[2]);
-        const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(used, radius)
+        for (uint32_t i : used) centres.push_back(glm::vec3(v3(records[i].position)));
+        const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(records.data(), used, radius)
                                                                : spm::build_point_grid(centres, cell * radius);
-        const SurfaceBuffers up = upload(dev, used, grid);
+        const SurfaceBuffers up = upload(dev, records, used, grid);
         set_surface_test_args(k, up, pb, nb, out, n, radius, kernel, max_depth);
         dev.launch(k, n);
         const auto got = dev.download<cl_float4>(out, n);
@@ -459,9 +468,8 @@ TEST(SurfaceEstimate, APixelsSamplesShareOnlyANearbyEstimate) {
     limits.push_back(e.limit);
   }
   auto& dev = spm::test::device();
-  const auto used = spm::used_surface_records(records, false);
-  const spm::RecordGrid grid = spm::surface_grid(used, radius);
-  const SurfaceBuffers up_buf = upload(dev, used, grid);
+  const auto used = spm::used_surface_records(records.data(), records.size(), false);
+  const SurfaceBuffers up_buf = upload(dev, records, used, spm::surface_grid(records.data(), used, radius));
   const int n = int(q.size());
   const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals),
                    lb = dev.upload("depth_limits", limits);
@@ -502,11 +510,11 @@ TEST(SurfaceEstimate, RecordsBeyondTheQueriesReachAreLeftOut) {
   spm::QueryBounds reach;
   reach.lo = glm::vec3(-11.0f);
   reach.hi = glm::vec3(11.0f);
-  const auto used = spm::used_surface_records(records, true, reach);
+  const auto used = spm::used_surface_records(records.data(), records.size(), true, reach);
   ASSERT_EQ(used.size(), 2u);
-  EXPECT_EQ(used[0].position[0], 0.0f);
-  EXPECT_EQ(used[1].position[0], 10.9f);
-  EXPECT_EQ(spm::used_surface_records(records, true).size(), 4u);
+  EXPECT_EQ(records[used[0]].position[0], 0.0f);
+  EXPECT_EQ(records[used[1]].position[0], 10.9f);
+  EXPECT_EQ(spm::used_surface_records(records.data(), records.size(), true).size(), 4u);
 }
 
 TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
@@ -526,7 +534,8 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
     r.flags = SPM_RECORD_HAD_EVENT;
   }
   auto& dev = spm::test::device();
-  const SurfaceBuffers up = upload(dev, records, spm::surface_grid(records, radius));
+  const std::vector<uint32_t> all = all_of(records);
+  const SurfaceBuffers up = upload(dev, records, all, spm::surface_grid(records.data(), all, radius));
   const int n = 200;
   std::vector<cl_float4> points(n), normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
   for (auto& p : points) p = {{radius + (side - 2 * radius) * u(rng), 0.0f, radius + (side - 2 * radius) * u(rng), 0}};

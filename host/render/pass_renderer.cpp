@@ -147,7 +147,10 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     } else {
       part.volume = part_of(maps.volume, k, parts);
     }
-    part.surface = part_of(maps.surface, k, parts);
+    // The surface records are read in place: a million in Fig. 3 (b).
+    const size_t first = maps.surface.size() * k / parts;
+    part.surface = maps.surface.data() + first;
+    part.surface_count = maps.surface.size() * (k + 1) / parts - first;
     MapGridData data = map_grid_data(std::move(part), radius, beam_radius, skip_direct, final_gather_, reach);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {

@@ -42,8 +42,11 @@ RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius
   return build_sphere_grid(positions(records), radius);
 }
 
-RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius) {
-  return build_point_grid(positions(records), kSurfaceCell * radius);
+RecordGrid surface_grid(const SpmSurfaceRecord* records, const std::vector<uint32_t>& used, float radius) {
+  std::vector<glm::vec3> centres;
+  centres.reserve(used.size());
+  for (uint32_t i : used) centres.emplace_back(records[i].position[0], records[i].position[1], records[i].position[2]);
+  return build_point_grid(centres, kSurfaceCell * radius);
 }
 
 RecordGrid beam_grid(const std::vector<SpmBeam>& beams, float radius) {
@@ -64,17 +67,17 @@ std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::
   });
 }
 
-std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
-  return per_item(grid, records, [](const SpmSurfaceRecord& r) {
-    return cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
-  });
-}
-
-std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records) {
-  return per_item(grid, records,
-                  [](const SpmSurfaceRecord& r) {
-                    return cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
-                  });
+SurfaceItems surface_items(const RecordGrid& grid, const SpmSurfaceRecord* records, const std::vector<uint32_t>& used) {
+  // One pass over the items for both arrays: each reads its record once.
+  SurfaceItems out;
+  out.pos.resize(grid.items.size());
+  out.flux.resize(grid.items.size());
+  for (size_t k = 0; k < grid.items.size(); ++k) {
+    const SpmSurfaceRecord& r = records[used[grid.items[k]]];
+    out.pos[k] = cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
+    out.flux[k] = cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
+  }
+  return out;
 }
 
 bool QueryBounds::contains(const float* p) const {
@@ -97,12 +100,15 @@ QueryBounds volume_core(const QueryBounds& reach, size_t records, float radius) 
   return core;
 }
 
-std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
-                                                   const QueryBounds& reach) {
-  std::vector<SpmSurfaceRecord> out;
-  out.reserve(records.size());
-  for (const auto& r : records) {
-    if ((!skip_direct || (r.flags & SPM_RECORD_HAD_EVENT)) && reach.contains(r.position)) out.push_back(r);
+std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size_t count, bool skip_direct,
+                                           const QueryBounds& reach) {
+  std::vector<uint32_t> out;
+  out.reserve(count);
+  for (size_t i = 0; i < count; ++i) {
+    const SpmSurfaceRecord& r = records[i];
+    if ((!skip_direct || (r.flags & SPM_RECORD_HAD_EVENT)) && reach.contains(r.position)) {
+      out.push_back(static_cast<uint32_t>(i));
+    }
   }
   return out;
 }
@@ -136,11 +142,11 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
     beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),
                 beams.end());
   }
-  const std::vector<SpmSurfaceRecord> surface = used_surface_records(maps.surface, skip_direct, reach);
-  std::vector<SpmSurfaceRecord> caustic;
+  const std::vector<uint32_t> surface = used_surface_records(maps.surface, maps.surface_count, skip_direct, reach);
+  std::vector<uint32_t> caustic;
   if (final_gather) {
-    for (const SpmSurfaceRecord& r : surface) {
-      if (r.flags & SPM_RECORD_CAUSTIC) caustic.push_back(r);
+    for (uint32_t i : surface) {
+      if (maps.surface[i].flags & SPM_RECORD_CAUSTIC) caustic.push_back(i);
     }
   }
   std::vector<SpmVolumeRecord> outer;
@@ -151,15 +157,17 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
   volume.erase(far, volume.end());
   d.volume = volume_grid(volume, radius);
   d.outer = volume_grid(outer, radius);
-  d.surface = surface_grid(surface, radius);
-  d.caustic = surface_grid(caustic, radius);
+  d.surface = surface_grid(maps.surface, surface, radius);
+  d.caustic = surface_grid(maps.surface, caustic, radius);
   d.beam = beam_grid(beams, beam_radius);
   d.volume_pos = volume_item_positions(d.volume, volume);
   d.outer_pos = volume_item_positions(d.outer, outer);
-  d.surface_pos = surface_item_positions(d.surface, surface);
-  d.surface_flux = surface_item_flux(d.surface, surface);
-  d.caustic_pos = surface_item_positions(d.caustic, caustic);
-  d.caustic_flux = surface_item_flux(d.caustic, caustic);
+  SurfaceItems items = surface_items(d.surface, maps.surface, surface);
+  d.surface_pos = std::move(items.pos);
+  d.surface_flux = std::move(items.flux);
+  items = surface_items(d.caustic, maps.surface, caustic);
+  d.caustic_pos = std::move(items.pos);
+  d.caustic_flux = std::move(items.flux);
   d.volume_records = std::move(volume);
   d.outer_records = std::move(outer);
   d.beams = std::move(beams);

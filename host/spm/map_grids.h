@@ -27,18 +27,22 @@ inline constexpr float kBeamCell = 1.5f;
 // The gather's grids: the volume map's sphere grid and the surface map's
 // point grid (host/spm/record_grid.h).
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
-RecordGrid surface_grid(const std::vector<SpmSurfaceRecord>& records, float radius);
+// The surface grid lists records[used[i]] as item i.
+RecordGrid surface_grid(const SpmSurfaceRecord* records, const std::vector<uint32_t>& used, float radius);
 RecordGrid beam_grid(const std::vector<SpmBeam>& beams, float radius);
 
 // Grid items of the volume map: the listed record's position, its depth in w
 // (kernels/lib/estimate.h leaves out records deeper than max_depth allows).
 std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records);
 
-// Grid items of the surface map: position with the packed normal in w
-// (kernels/lib/estimate.h, unpack_normal), and the record's flux with its
-// depth in w, so that the surface estimate never reads the records themselves.
-std::vector<cl_float4> surface_item_positions(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
-std::vector<cl_float4> surface_item_flux(const RecordGrid& grid, const std::vector<SpmSurfaceRecord>& records);
+// Grid items of the surface map (a grid from surface_grid over `used`):
+// position with the packed normal in w (kernels/lib/estimate.h,
+// unpack_normal), and the record's flux with its depth in w, so that the
+// surface estimate never reads the records themselves.
+struct SurfaceItems {
+  std::vector<cl_float4> pos, flux;
+};
+SurfaceItems surface_items(const RecordGrid& grid, const SpmSurfaceRecord* records, const std::vector<uint32_t>& used);
 
 // The part of space the gather's queries can reach: the scene's bounds
 // grown by the radius. A photon that lands on a tangent plane outside it
@@ -55,12 +59,13 @@ struct QueryBounds {
 // records while it holds the records near the scene as well as in it.
 QueryBounds volume_core(const QueryBounds& reach, size_t records, float radius);
 
-// The surface records the gather uses: with next-event estimation
-// (`skip_direct`), not those of streams that had no event before (METHOD.md
-// 5); and only those inside `reach`, so that the grid stays as tight as the
-// scene.
-std::vector<SpmSurfaceRecord> used_surface_records(const std::vector<SpmSurfaceRecord>& records, bool skip_direct,
-                                                   const QueryBounds& reach = {});
+// The indices of the surface records among records[0, count) that the
+// gather uses: with next-event estimation (`skip_direct`), not those of
+// streams that had no event before (METHOD.md 5); and only those inside
+// `reach`, so that the grid stays as tight as the scene. Indices, not
+// copies: a pass of Fig. 3 (b) has a million records of 64 bytes.
+std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size_t count, bool skip_direct,
+                                           const QueryBounds& reach = {});
 
 // The gather's grids of some map records, built on the host: the volume
 // map's sphere grid, the surface map's point grid and the stream beams'
@@ -76,7 +81,8 @@ struct MapGridData {
 // The records a pass's gather reads, and its radii.
 struct MapParts {
   std::vector<SpmVolumeRecord> volume;  // empty when the gather reads beams
-  std::vector<SpmSurfaceRecord> surface;
+  const SpmSurfaceRecord* surface = nullptr;  // [surface, surface + surface_count), not owned
+  size_t surface_count = 0;
   std::vector<SpmBeam> beams;           // empty unless the gather reads beams
 };
 
