@@ -1,6 +1,6 @@
 /* spm_gather: one work-item per block of 2x2 pixels, spp camera samples per
- * pixel (METHOD.md 5; paper 3.2, eq. 4). From: camera, photon maps and their grids. To: the
- * pass's film (mean radiance of the pixel's samples).
+ * pixel (METHOD.md 5; paper 3.2, eq. 4). From: camera, photon maps and their
+ * grids. To: the pass's film (mean radiance of each pixel's samples).
  *
  * A camera ray through the pixel filter follows specular chains (mirror,
  * dielectric) and null boundaries. Along every segment inside a medium it
