@@ -492,10 +492,11 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
 }
 
 /* Pixels are gathered in blocks of SPM_GATHER_BLOCK x SPM_GATHER_BLOCK, one
- * block per work-item (spm_types.h), so that neighbouring pixels' samples share surface estimates
- * too (pixel_surface_estimate, lib/estimate.h): at 1 sample per pixel the
- * 2x2 pixels' vertices then read one disk instead of four while the disk
- * spans several pixels. */
+ * block per work-item (spm_types.h), so that neighbouring pixels' samples
+ * share surface estimates (pixel_surface_estimate) and the volume estimate
+ * of the camera ray's first medium segment (volume_reuse_hit, both in
+ * lib/estimate.h): at 1 sample per pixel the 2x2 pixels then read one disk
+ * instead of four while the disk spans several pixels. */
 __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __global SpmCamera* camera,
                          __global float4* film, __global uint* sphere_tests, __global uint* errors, uint first_pixel,
                          uint count SPM_MAP_PARAMS) {

@@ -181,6 +181,26 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   EXPECT_GT(nonzero, n / 2);
 }
 
+// What a run of shared estimates must show: estimate i equals own[i]
+// (its own brute-force sum) where shares[i] < 0, and otherwise exactly
+// estimate shares[i], which its own sum would not have given; and each of
+// `distinct` differs from the estimate before it.
+void expect_sharing(const std::vector<cl_float4>& got, const std::vector<dvec3>& own, const std::vector<int>& shares,
+                    std::initializer_list<int> distinct) {
+  for (size_t i = 0; i < got.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      if (shares[i] < 0) {
+        EXPECT_NEAR(got[i].s[c], own[i][c], 1e-4 * own[i][c] + 1e-9) << "estimate " << i << " is its own";
+      } else {
+        EXPECT_EQ(got[i].s[c], got[shares[i]].s[c]) << "estimate " << i << " reads estimate " << shares[i] << "'s";
+        // Its own sum would have given another value: the sharing is seen.
+        EXPECT_GT(std::abs(own[i][c] - got[i].s[c]), 1e-3 * own[i][c]) << "estimate " << i;
+      }
+    }
+  }
+  for (int i : distinct) EXPECT_GT(std::abs(got[i].s[0] - got[i - 1].s[0]), 1e-3 * got[i].s[0]) << i;
+}
+
 // A block's camera samples share the volume estimate along their first
 // segment (volume_reuse_hit): a segment whose two ends lie within 0.25 r of
 // the last estimated segment's, with the same record depths, reads it; any
@@ -243,22 +263,14 @@ TEST(BeamEstimate, ABlocksSegmentsShareOnlyANearbyEstimate) {
                 spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
   dev.launch(k, 1);
   const auto got = dev.download<cl_float4>(out, n);
-  for (int i = 0; i < n; ++i) {
-    const double t1 = q[i].t1 > 1e29 ? 1e30 : q[i].t1;
-    const dvec3 own = beam_reference(records, medium, 0, q[i].o, q[i].d, q[i].t0, t1, radius, kernel, 0, 0u,
-                                     q[i].limit);
-    for (int c = 0; c < 3; ++c) {
-      if (q[i].shares < 0) {
-        EXPECT_NEAR(got[i].s[c], own[c], 1e-4 * own[c] + 1e-9) << "segment " << i << " sums its own records";
-      } else {
-        EXPECT_EQ(got[i].s[c], got[q[i].shares].s[c]) << "segment " << i << " reads segment " << q[i].shares << "'s";
-        // Its own records would have given another value: the sharing is seen.
-        EXPECT_GT(std::abs(own[c] - got[i].s[c]), 1e-3 * own[c]) << "segment " << i;
-      }
-    }
+  std::vector<dvec3> own;
+  std::vector<int> shares;
+  for (const auto& e : q) {
+    own.push_back(beam_reference(records, medium, 0, e.o, e.d, e.t0, e.t1, radius, kernel, 0, 0u, e.limit));
+    shares.push_back(e.shares);
   }
-  // Each segment that sums its own records differs from the one before it.
-  for (int i : {2, 3, 4}) EXPECT_GT(std::abs(got[i].s[0] - got[i - 1].s[0]), 1e-3 * got[i].s[0]) << i;
+  // Segments 2 .. 4 sum their own records, each unlike the one before it.
+  expect_sharing(got, own, shares, {2, 3, 4});
 }
 
 // Depth limits: none, and 2 .. 3 of the records' depths 1 .. 6.
@@ -481,20 +493,14 @@ TEST(SurfaceEstimate, APixelsSamplesShareOnlyANearbyEstimate) {
                 spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
   dev.launch(k, 1);
   const auto got = dev.download<cl_float4>(out, n);
-  for (int i = 0; i < n; ++i) {
-    const dvec3 own = brute(q[i].x, q[i].n, q[i].limit);
-    for (int c = 0; c < 3; ++c) {
-      if (q[i].shares < 0) {
-        EXPECT_NEAR(got[i].s[c], own[c], 1e-4 * own[c] + 1e-9) << "query " << i << " sums its own disk";
-      } else {
-        EXPECT_EQ(got[i].s[c], got[q[i].shares].s[c]) << "query " << i << " reads query " << q[i].shares << "'s";
-        // Its own disk would have given another value: the sharing is seen.
-        EXPECT_GT(std::abs(own[c] - got[i].s[c]), 1e-3 * own[c]) << "query " << i;
-      }
-    }
+  std::vector<dvec3> own;
+  std::vector<int> shares;
+  for (const auto& e : q) {
+    own.push_back(brute(e.x, e.n, e.limit));
+    shares.push_back(e.shares);
   }
-  // Each query that sums its own disk differs from the one before it.
-  for (int i : {2, 3, 4}) EXPECT_GT(std::abs(got[i].s[0] - got[i - 1].s[0]), 1e-3 * got[i].s[0]) << i;
+  // Queries 2 .. 4 sum their own disks, each unlike the one before it.
+  expect_sharing(got, own, shares, {2, 3, 4});
 }
 
 // A grazing stream's photons can land on their tangent plane far outside
