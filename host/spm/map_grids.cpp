@@ -133,10 +133,12 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
-  if (skip_direct) {
+  if (skip_direct && !final_gather) {
     // Single scattering comes from next-event estimation (spm_gather.cl,
     // inscatter_nee): a volume record or beam at path vertex 1 has no
-    // earlier event.
+    // earlier event. A final gather keeps them: its rays read single
+    // scattering from them (final_gather), and the camera's segments skip
+    // them by depth (min_rec_depth 2).
     volume.erase(std::remove_if(volume.begin(), volume.end(), [](const SpmVolumeRecord& r) { return r.depth <= 1; }),
                  volume.end());
     beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),

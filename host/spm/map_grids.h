@@ -87,12 +87,13 @@ struct MapParts {
 };
 
 // `surface` as the gather uses it (used_surface_records); with next-event
-// estimation (`skip_direct`) the surface records, volume records and beams
-// of streams without an earlier event (depth 1) are left out, the final
-// gather's rays included (they estimate that light by next-event
-// estimation too, spm_gather.cl final_gather). With a final gather
-// (`final_gather`) the caustic grid holds the surface records flagged
-// SPM_RECORD_CAUSTIC, read at the camera's vertex.
+// estimation (`skip_direct`) the surface records of streams without an
+// earlier event are left out, the final gather's rays included (they
+// estimate that light by next-event estimation too, spm_gather.cl
+// final_gather), and so are the volume records and beams of depth 1 unless
+// there is a final gather (`final_gather`), whose rays read single
+// scattering from them. With a final gather the caustic grid holds the
+// surface records flagged SPM_RECORD_CAUSTIC, read at the camera's vertex.
 // Volume records outside volume_core(reach) go to a grid of their own (`outer`): in a
 // fog that fills all space they spread hundreds of radii beyond the scene,
 // and one grid over all of them, capped in cells, would have cells far
