@@ -113,8 +113,8 @@ void expect_same_mean(const std::string& text) {
   // against planes 50 apart) keeps near 1%; the bound also catches the
   // caustic counted twice or dropped, or the fog's single scattering along
   // the gather rays, which their volume records of depth 1 carry, left out
-  // of the grid or added again by next-event estimation (each moves both
-  // scenes' means by about 4%, several times the bound).
+  // of the grid or added again by next-event estimation (each moves the
+  // two scenes' means by 3-5%, past bounds of about 3% and 2%).
   EXPECT_NEAR(with.mean, without.mean, 4 * se + 0.01 * without.mean);
   EXPECT_LT(4 * se, 0.03 * without.mean) << "too noisy to tell";
 }
