@@ -25,6 +25,7 @@
 #include "profile/profile.h"
 #include "util/text_file.h"
 #include "render/render.h"
+#include "render/terms.h"
 #include "scene/integrator_options.h"
 #include "scene/loader.h"
 #include "scene/volume_grid.h"
@@ -64,6 +65,7 @@ struct RenderArgs {
   std::optional<float> stream_width, march_step, radius, alpha, time;
   std::optional<std::string> estimator, density_kernel, direct;
   bool final_gather = false, no_final_gather = false;
+  std::vector<std::string> terms;
 };
 
 void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
@@ -138,6 +140,7 @@ int cmd_render(const RenderArgs& a) {
   double t = profiler.now();
   spm::RenderSettings settings = a.settings;
   parse_res(a.res, settings);
+  if (!a.terms.empty()) settings.terms = spm::gather_terms(a.terms, "--terms");
   spm::Scene scene = spm::load_scene(a.scene, parse_defines(a.defines));
   apply_overrides(a, scene.integrator);
   settings = spm::resolve_settings(scene, settings);
@@ -346,6 +349,11 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   render->add_option("--dump-maps", r.settings.dump_maps,
                      "Write the first pass's maps as PREFIX_volume.ply and PREFIX_surface.ply (position, flux)");
+  render->add_option("--terms", r.terms,
+                     "Only these terms of the gather, comma-separated (emission, direct, inscatter, volume, surface, "
+                     "gather_volume, gather_direct, gather_surface): their part of the image and their cost; "
+                     "default: all (tools/gather_terms.py)")
+      ->delimiter(',');
   render->add_option("--kernel-dir", r.kernel_dir,
                      "Load kernels from this directory instead of the embedded sources")
       ->check(CLI::ExistingDirectory);

@@ -22,6 +22,7 @@
 /* What the estimates need, bundled for the path loop. */
 typedef struct SpmMaps {
   uint direct_terms; /* 0: the photon estimates alone (a later part of the maps) */
+  uint terms;        /* SPM_TERM_* bits of the terms to compute (spm_types.h) */
   SpmGrid volume_grid;
   const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
@@ -362,7 +363,9 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
      * vertex's are its own. */
     SpmRng own = rng;
     own.event = (rng.event & ~255u) + SPM_GATHER_EVENT + hop;
-    const bool direct = maps->direct_terms && within_depth(segments + hop + 2u, max_depth);
+    const bool direct =
+        maps->direct_terms && (maps->terms & SPM_TERM_GATHER_DIRECT) && within_depth(segments + hop + 2u, max_depth);
+    const bool surface = (maps->terms & SPM_TERM_GATHER_SURFACE) != 0u;
     float reach = 0.0f;
     bool next = false;
     for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
@@ -370,7 +373,9 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
       if (medium >= 0) {
         const float t_end = hit ? h.t : SPM_INF;
-        li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
+        if (maps->terms & SPM_TERM_GATHER_VOLUME) {
+          li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
+        }
       }
       if (!hit) break;
       tr *= medium_transmittance(&s->md, medium, o, wi, 0.0f, h.t, maps->march_step, rng,
@@ -390,13 +395,15 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       if (direct) li += tr * direct_diffuse(s, &y, m, wi, medium, maps->march_step, rng);
       if (hop < SPM_GATHER_HOPS && reach < SPM_GATHER_NEAR * maps->radius) {
         tr *= load3(m->reflectance);
-        li += tr * SPM_INV_PI *
-              surface_estimate(&maps->caustic_grid, maps->caustic_flux, y.p, n, maps->radius, maps->density_kernel,
-                               depth_limit);
+        if (surface) {
+          li += tr * SPM_INV_PI *
+                surface_estimate(&maps->caustic_grid, maps->caustic_flux, y.p, n, maps->radius, maps->density_kernel,
+                                 depth_limit);
+        }
         x = y;
         d = wi;
         next = true;
-      } else {
+      } else if (surface) {
         li += tr * load3(m->reflectance) * SPM_INV_PI *
               surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, n, maps->radius, maps->density_kernel,
                                depth_limit);
@@ -433,11 +440,14 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
        * (camera_volume_estimate); null boundaries before it leave it straight. */
       const bool first = specular == 0u && !crossed_medium;
       crossed_medium = true;
-      L += beta * (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth,
-                                                    depth_limit, tests)
-                           : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
+      if (maps->terms & SPM_TERM_VOLUME) {
+        L += beta * (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth,
+                                                      depth_limit, tests)
+                             : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
+      }
       /* Single scattering makes the path specular + 2 segments long. */
-      if (maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth)) {
+      if (maps->direct_terms && (maps->terms & SPM_TERM_INSCATTER) && maps->direct == SPM_DIRECT_NEE &&
+          within_depth(specular + 2u, max_depth)) {
         L += beta * medium_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng);
       }
     }
@@ -451,7 +461,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const __global SpmMaterial* m = &s->materials[shape->material];
     /* Emission seen directly or through specular chains: paths end at their
      * first diffuse vertex, whose light NEE and the photon maps provide. */
-    if (maps->direct_terms && shape->light >= 0 && dot(d, surf.ng) < 0.0f && within_depth(specular + 1u, max_depth)) {
+    if (maps->direct_terms && (maps->terms & SPM_TERM_EMISSION) && shape->light >= 0 && dot(d, surf.ng) < 0.0f &&
+        within_depth(specular + 1u, max_depth)) {
       L += beta * load3(s->lights[shape->light].emission);
     }
     tmin = 0.0f;
@@ -463,16 +474,21 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     }
     if (m->type == SPM_MAT_DIFFUSE) {
       if (reflects_from(m, &surf, d)) {
-        const bool nee = maps->direct_terms && maps->direct == SPM_DIRECT_NEE && within_depth(specular + 2u, max_depth);
+        const bool nee = maps->direct_terms && (maps->terms & SPM_TERM_DIRECT) && maps->direct == SPM_DIRECT_NEE &&
+                         within_depth(specular + 2u, max_depth);
         if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, maps->march_step, rng);
         const uint depth_limit = record_depth_limit(max_depth, specular);
         if (maps->final_gather) {
-          const float3 caustic = pixel_surface_estimate(reuse, &maps->caustic_grid, maps->caustic_flux, surf.p,
-                                                        facing_normal(&surf, d), maps->radius, maps->density_kernel,
-                                                        depth_limit);
-          L += beta * load3(m->reflectance) *
-               (SPM_INV_PI * caustic + final_gather(s, maps, &surf, d, medium, specular + 1u, max_depth, rng, tests));
-        } else {
+          float3 caustic = (float3)(0.0f), gathered = (float3)(0.0f);
+          if (maps->terms & SPM_TERM_SURFACE) {
+            caustic = pixel_surface_estimate(reuse, &maps->caustic_grid, maps->caustic_flux, surf.p,
+                                             facing_normal(&surf, d), maps->radius, maps->density_kernel, depth_limit);
+          }
+          if (maps->terms & SPM_TERMS_GATHER) {
+            gathered = final_gather(s, maps, &surf, d, medium, specular + 1u, max_depth, rng, tests);
+          }
+          L += beta * load3(m->reflectance) * (SPM_INV_PI * caustic + gathered);
+        } else if (maps->terms & SPM_TERM_SURFACE) {
           const float3 flux = pixel_surface_estimate(reuse, &maps->surface_grid, maps->surface_flux, surf.p,
                                                      facing_normal(&surf, d), maps->radius, maps->density_kernel,
                                                      depth_limit);
@@ -538,6 +554,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.estimator = params.estimator;
   maps.direct = params.direct;
   maps.direct_terms = params.direct_terms;
+  maps.terms = params.terms;
   SpmSurfaceReuse reuse = surface_reuse_empty();
   SpmVolumeReuse volume_reuse = volume_reuse_empty();
   for (uint q = 0; q < SPM_GATHER_BLOCK * SPM_GATHER_BLOCK; ++q) {

@@ -64,7 +64,7 @@
   F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
   F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
-  F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed)                               \
+  F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

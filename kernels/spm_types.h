@@ -37,6 +37,21 @@ typedef float spm_float;
 #define SPM_DIRECT_NEE 0u          /* direct light on surfaces by shadow rays */
 #define SPM_DIRECT_PHOTONS 1u      /* direct light from the photon map only */
 
+/* The gather's terms (SpmGatherParams.terms, `spm render --terms`): each is
+ * computed only when its bit is set, so that a render of one term alone
+ * shows both its part of the image and its cost. The terms partition the
+ * radiance: their images add up to the whole one. */
+#define SPM_TERM_EMISSION 1u         /* emission the camera sees, directly or through specular chains */
+#define SPM_TERM_DIRECT 2u           /* direct light at the camera's diffuse vertex (shadow ray) */
+#define SPM_TERM_INSCATTER 4u        /* single scattering along the camera's segments (shadow rays) */
+#define SPM_TERM_VOLUME 8u           /* the camera segments' volume estimate */
+#define SPM_TERM_SURFACE 16u         /* the surface estimate at the camera's diffuse vertex (caustic records with a final gather) */
+#define SPM_TERM_GATHER_VOLUME 32u   /* the gather rays' volume estimate */
+#define SPM_TERM_GATHER_DIRECT 64u   /* direct light at the gather rays' ends (shadow ray) */
+#define SPM_TERM_GATHER_SURFACE 128u /* the surface estimate at the gather rays' ends */
+#define SPM_TERMS_ALL 255u
+#define SPM_TERMS_GATHER (SPM_TERM_GATHER_VOLUME | SPM_TERM_GATHER_DIRECT | SPM_TERM_GATHER_SURFACE)
+
 /* spm_gather's work-item gathers a block of SPM_GATHER_BLOCK x
  * SPM_GATHER_BLOCK pixels (spm_gather.cl); the host launches one per block. */
 #define SPM_GATHER_BLOCK 2u
@@ -281,7 +296,8 @@ typedef struct SpmGatherParams {
   spm_float march_step;    /* Delta of heterogeneous media's transmittance; 0: ratio tracking (METHOD.md 12) */
   spm_uint first_sample;   /* the render's index of the pass's first sample per pixel (stratify2) */
   spm_uint strata_seed;    /* which scrambled sequence those indices read (stratify2) */
-  spm_uint pad[2];
+  spm_uint terms;          /* SPM_TERM_* bits of the terms to add; SPM_TERMS_ALL */
+  spm_uint pad[1];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

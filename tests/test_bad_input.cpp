@@ -301,6 +301,14 @@ TEST_F(BadInput, AbsurdResolutions) {
   }
 }
 
+TEST_F(BadInput, UnknownGatherTerms) {
+  const std::string file = write("ok.xml", plane_scene(""));
+  for (const char* terms : {"bogus", "direct,bogus", "Direct"}) {
+    SCOPED_TRACE(terms);
+    expect_refused(render(file, std::string("--terms ") + terms), "--terms:", "unknown term", "gather_surface");
+  }
+}
+
 TEST_F(BadInput, InvalidDeviceSelectors) {
   const std::string file = write("ok.xml", plane_scene(""));
   for (const char* selector : {"9:9", "0:99", "-1:0", "no-such-device", "1:2:3"}) {

@@ -9,8 +9,10 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "render/render.h"
+#include "render/terms.h"
 #include "scene/loader.h"
 #include "test_support.h"
 
@@ -120,6 +122,55 @@ void expect_same_mean(const std::string& text) {
 }
 
 TEST(FinalGather, AgreesWithTheDirectLookupOnTheMean) { expect_same_mean(far_scene()); }
+
+// The gather's terms (spm render --terms, render/terms.h) partition the
+// radiance: one pass of far_scene with a small light on the floor that the
+// camera sees, rendered with each term alone, adds up to the pass rendered
+// whole, pixel by pixel, up to float rounding, with the final gather and
+// without it. Each term is computed only when asked for, so each must also
+// add something of its own where the scene has it (without the final
+// gather the gather rays' terms have nothing to add).
+TEST(FinalGather, TheTermsAddUpToTheWholeImage) {
+  const std::string text = planes_scene(50.0f, 40.0f, 50.0f, 5.0f, 0.0f, 49.0f, R"(  <shape type="sphere">
+    <point name="center" x="5" y="14" z="0"/>
+    <float name="radius" value="5"/>
+    <bsdf type="dielectric"/>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="2"/><rotate x="1" angle="-90"/><translate x="-10" y="0.5"/></transform>
+    <emitter type="area"><rgb name="radiance" value="5"/></emitter>
+  </shape>
+)");
+  for (bool final_gather : {true, false}) {
+    spm::Scene scene = spm::load_scene_string(text, "terms.xml");
+    scene.integrator.final_gather = final_gather;
+    spm::RenderSettings s;
+    s.passes = 1;
+    s.seed = 7;
+    const spm::Image whole = spm::render(scene, s, spm::test::device());
+    std::vector<double> sum(whole.rgb.size(), 0.0);
+    for (const spm::GatherTerm& term : spm::kGatherTerms) {
+      s.terms = term.bit;
+      const spm::Image part = spm::render(scene, s, spm::test::device());
+      ASSERT_EQ(part.rgb.size(), whole.rgb.size());
+      double total = 0.0;
+      for (size_t i = 0; i < part.rgb.size(); ++i) {
+        sum[i] += part.rgb[i];
+        total += part.rgb[i];
+      }
+      const bool gather_term = (term.bit & SPM_TERMS_GATHER) != 0;
+      if (final_gather || !gather_term) {
+        EXPECT_GT(total, 0.0) << term.name << (final_gather ? " with" : " without") << " the final gather";
+      } else {
+        EXPECT_EQ(total, 0.0) << term.name << " without the final gather";
+      }
+    }
+    for (size_t i = 0; i < sum.size(); ++i) {
+      ASSERT_NEAR(sum[i], whole.rgb[i], 1e-5 * std::fabs(whole.rgb[i]) + 1e-6)
+          << "value " << i << (final_gather ? " with" : " without") << " the final gather";
+    }
+  }
+}
 
 TEST(FinalGather, ShortGatherRaysGoOnAndAgreeOnTheMean) { expect_same_mean(near_scene()); }
 

@@ -191,6 +191,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.direct_terms = direct_terms && k == 0;
     params.first_sample = first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass) * s.spp);
     params.strata_seed = strata_seed_;
+    params.terms = s.terms;
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();
     stages.stage("gather", t);

@@ -40,6 +40,7 @@ struct RenderSettings {
   int passes = 0;
   uint32_t seed = 0;
   std::string dump_maps;     // PLY prefix for the first pass's photon maps; empty: none
+  uint32_t terms = SPM_TERMS_ALL;  // the gather's terms to add (SPM_TERM_*, render/terms.h)
   size_t memory_budget = 0;  // device bytes all of a render's buffers may hold at once; 0: the device's memory
   // When set, no new pass starts; the passes in flight finish (SIGINT).
   const std::atomic<bool>* stop = nullptr;
