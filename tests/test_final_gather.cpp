@@ -149,8 +149,8 @@ TEST(FinalGather, TheTermsAddUpToTheWholeImage) {
     s.seed = 7;
     const spm::Image whole = spm::render(scene, s, spm::test::device());
     std::vector<double> sum(whole.rgb.size(), 0.0);
-    for (const spm::GatherTerm& term : spm::kGatherTerms) {
-      s.terms = term.bit;
+    for (const spm::OptionValue& term : spm::kGatherTerms.values) {
+      s.terms = term.code;
       const spm::Image part = spm::render(scene, s, spm::test::device());
       ASSERT_EQ(part.rgb.size(), whole.rgb.size());
       double total = 0.0;
@@ -158,7 +158,7 @@ TEST(FinalGather, TheTermsAddUpToTheWholeImage) {
         sum[i] += part.rgb[i];
         total += part.rgb[i];
       }
-      const bool gather_term = (term.bit & SPM_TERMS_GATHER) != 0;
+      const bool gather_term = (term.code & SPM_TERMS_GATHER) != 0;
       if (final_gather || !gather_term) {
         EXPECT_GT(total, 0.0) << term.name << (final_gather ? " with" : " without") << " the final gather";
       } else {

@@ -1,6 +1,7 @@
 // The integrator's named options (SCENES.md: estimator, kernel, direct) and
 // their codes in the kernels (kernels/spm_types.h), in one table that the
-// loader, the command line and the host binding all read.
+// loader, the command line and the host binding all read; NamedCodes also
+// names the gather's terms (render/terms.h).
 #pragma once
 
 #include <stdexcept>
@@ -16,9 +17,9 @@ struct OptionValue {
   spm_uint code;
 };
 
-struct IntegratorOption {
-  const char* property;  // the <integrator type="spm"> property
-  const char* what;      // for messages
+// Names and their kernel codes, for messages and lookups.
+struct NamedCodes {
+  const char* what;  // for messages
   std::vector<OptionValue> values;
 
   std::vector<std::string> names() const {
@@ -51,11 +52,16 @@ struct IntegratorOption {
   }
 };
 
+struct IntegratorOption : NamedCodes {
+  const char* property;  // the <integrator type="spm"> property
+};
+
 inline const IntegratorOption kEstimatorOption{
-    "estimator", "estimator", {{"bre", SPM_ESTIMATOR_BRE}, {"beams", SPM_ESTIMATOR_BEAMS}, {"paper", SPM_ESTIMATOR_PAPER}}};
+    {"estimator", {{"bre", SPM_ESTIMATOR_BRE}, {"beams", SPM_ESTIMATOR_BEAMS}, {"paper", SPM_ESTIMATOR_PAPER}}},
+    "estimator"};
 inline const IntegratorOption kDensityKernelOption{
-    "kernel", "kernel", {{"uniform", SPM_KERNEL_UNIFORM}, {"epanechnikov", SPM_KERNEL_EPANECHNIKOV}}};
+    {"kernel", {{"uniform", SPM_KERNEL_UNIFORM}, {"epanechnikov", SPM_KERNEL_EPANECHNIKOV}}}, "kernel"};
 inline const IntegratorOption kDirectOption{
-    "direct", "direct lighting", {{"nee", SPM_DIRECT_NEE}, {"photons", SPM_DIRECT_PHOTONS}}};
+    {"direct lighting", {{"nee", SPM_DIRECT_NEE}, {"photons", SPM_DIRECT_PHOTONS}}}, "direct"};
 
 }  // namespace spm
