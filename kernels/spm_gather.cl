@@ -566,7 +566,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
     float3 sum = (float3)(0.0f);
     for (uint i = 0; i < params.spp; ++i) {
       /* Event index: a block of 256 per sample, one per path vertex. */
-      SpmRng rng = rng_make(params.seed, params.pass, pixel, i * 256u);
+      SpmRng rng = rng_gather(params.seed, params.pass, pixel, i * 256u);
       rng.sample = params.first_sample + i;
       rng.strata = params.strata_seed;
       const float2 u = stratify2(rng, SPM_RNG_CAMERA, 0u);

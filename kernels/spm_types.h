@@ -51,6 +51,8 @@ typedef float spm_float;
 #define SPM_TERM_GATHER_SURFACE 128u /* the surface estimate at the gather rays' ends */
 #define SPM_TERMS_ALL 255u
 #define SPM_TERMS_GATHER (SPM_TERM_GATHER_VOLUME | SPM_TERM_GATHER_DIRECT | SPM_TERM_GATHER_SURFACE)
+/* The terms that read the photon maps; without them a pass propagates no streams. */
+#define SPM_TERMS_PHOTONS (SPM_TERM_VOLUME | SPM_TERM_SURFACE | SPM_TERM_GATHER_VOLUME | SPM_TERM_GATHER_SURFACE)
 
 /* spm_gather's work-item gathers a block of SPM_GATHER_BLOCK x
  * SPM_GATHER_BLOCK pixels (spm_gather.cl); the host launches one per block. */

@@ -129,4 +129,38 @@ TEST(Strata, APixelsMeanKeepsItsExpectationWithLessVariance) {
   EXPECT_LT(var_mean, 0.01 * var_independent);
 }
 
+TEST(Strata, TheCameraSamplesDrawApartFromTheStreams) {
+  // A pixel's counter (pixel, 256 sample + vertex, purpose, lane) equals a
+  // stream's (id, event, purpose, lane) whenever pixel = id and sample 0's
+  // vertex = event. Under one key the two would draw the same uniform;
+  // rng_gather's key keeps them apart: no pair coincides, and over many
+  // pairs their correlation is within 4 standard errors (1 / sqrt(n)) of 0.
+  std::vector<double> a, b;
+  for (uint32_t id = 0; id < 4096; ++id) {
+    for (uint32_t event : {0u, 1u, 2u, 5u}) {
+      for (uint32_t purpose : {SPM_RNG_BSDF, SPM_RNG_PHASE, SPM_RNG_DISTANCE, SPM_RNG_LIGHT_PICK}) {
+        const auto s = spm::clc::rng4(spm::clc::rng_make(7u, 3u, id, event), purpose, 0u);
+        const auto g = spm::clc::rng4(spm::clc::rng_gather(7u, 3u, id, event), purpose, 0u);
+        ASSERT_FALSE(s.x == g.x && s.y == g.y && s.z == g.z && s.w == g.w)
+            << "pixel and stream " << id << ", event " << event << ", purpose " << purpose;
+        a.push_back(s.x);
+        b.push_back(g.x);
+      }
+    }
+  }
+  const double n = double(a.size());
+  double ma = 0.0, mb = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    ma += a[i] / n;
+    mb += b[i] / n;
+  }
+  double sab = 0.0, saa = 0.0, sbb = 0.0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  EXPECT_LT(std::fabs(sab / std::sqrt(saa * sbb)), 4.0 / std::sqrt(n));
+}
+
 }  // namespace

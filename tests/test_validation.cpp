@@ -10,6 +10,7 @@
 // error falls). The whole file runs in about a minute on 2 cores with PoCL.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -109,6 +110,10 @@ struct Case {
   Region skip;       // pixels the reference cannot be trusted in (none: compare all)
   const char* estimator = nullptr;  // the scene's own when null
   bool final_gather = true;         // the default
+  // Seeds of the N-pass renders; the bound applies to the median of their
+  // relMSEs, which a rare firefly in one of them does not move. The first
+  // seed also renders the 4N passes.
+  std::vector<uint32_t> seeds = {7};
 };
 
 struct Renders {
@@ -126,22 +131,28 @@ Renders validate(const Case& c) {
   scene.integrator.max_bounces = 32;
   if (c.estimator) scene.integrator.estimator = c.estimator;
   scene.integrator.final_gather = c.final_gather;
-  auto render = [&](int passes) {
+  auto render = [&](int passes, uint32_t seed) {
     spm::RenderSettings s;
     s.passes = passes;
-    s.seed = 7;
+    s.seed = seed;
     return spm::render(scene, s, spm::test::device());
   };
-  Renders r{render(c.passes), render(4 * c.passes), ref.image};
-  const double e = rel_mse(r.n, r.ref, c.skip), e4 = rel_mse(r.n4, r.ref, c.skip);
+  Renders r{render(c.passes, c.seeds[0]), render(4 * c.passes, c.seeds[0]), ref.image};
+  std::vector<double> errors{rel_mse(r.n, r.ref, c.skip)};
+  for (size_t i = 1; i < c.seeds.size(); ++i) errors.push_back(rel_mse(render(c.passes, c.seeds[i]), r.ref, c.skip));
+  std::sort(errors.begin(), errors.end());
+  const double e = errors[errors.size() / 2], e4 = rel_mse(r.n4, r.ref, c.skip);
   ::testing::Test::RecordProperty("relmse_N", std::to_string(e));
   ::testing::Test::RecordProperty("relmse_4N", std::to_string(e4));
-  EXPECT_LT(e, c.threshold) << c.scene << ": relMSE after " << c.passes << " passes " << e << " (mean ratio "
+  EXPECT_LT(e, c.threshold) << c.scene << ": relMSE after " << c.passes << " passes " << e << " (the median of "
+                            << errors.size() << " seeds; seed " << c.seeds[0] << "'s mean ratio "
                             << mean_ratio(r.n, r.ref, c.skip) << ")";
   EXPECT_LT(e4, e) << c.scene << ": relMSE after " << 4 * c.passes << " passes " << e4 << " is not below " << e
                    << " after " << c.passes;
-  std::printf("%s: relMSE %.5f after %d passes (mean ratio %.4f), %.5f after %d (mean ratio %.4f)\n", c.scene, e,
-              c.passes, mean_ratio(r.n, r.ref, c.skip), e4, 4 * c.passes, mean_ratio(r.n4, r.ref, c.skip));
+  std::printf("%s: relMSE %.5f after %d passes (median of %zu seeds; seed %u's mean ratio %.4f), %.5f after %d (mean "
+              "ratio %.4f)\n",
+              c.scene, e, c.passes, errors.size(), c.seeds[0], mean_ratio(r.n, r.ref, c.skip), e4, 4 * c.passes,
+              mean_ratio(r.n4, r.ref, c.skip));
   return r;
 }
 
@@ -193,17 +204,25 @@ TEST(Validation, VolumetricCausticConvergesToMitsubaOutsideTheCaustic) {
 
 // A volumetric caustic that volpath can render (issue 14, item 5): the glass
 // sphere in fog lit by a small spherical area light instead of a spot.
-// Measured (64x64, max_bounces 32): relMSE after 2 passes 0.0087 (seed 7,
-// the one used here; seeds 11, 17, 19, 23, 29: 0.0086 to 0.0095; seed 13:
-// 0.0173, a firefly), after 8 passes 0.0034; mean ratio spm/volpath 0.996
-// outside the light's six pixels. The bound 0.02 is above every seed. In the
-// floor caustic under the sphere (about 5x the floor's radiance) spm/volpath
-// is 0.96 to 1.00 after 2 passes over the seeds and 0.95 after 8 (the
-// radius blurs its peak); a caustic lost (no collapse at the glass) or
-// doubled would leave 0.85 to 1.1.
+// Its relMSE after a few passes is heavy-tailed: the light's image seen
+// through the sphere covers a small part of a few pixels, so one camera
+// sample in a few hundred that refracts onto it makes a firefly there.
+// Measured (64x64, max_bounces 32), relMSE after 2 passes over seeds 7, 11,
+// 13, 17, 19, 23, 29, 31: 0.0333 and 0.0212 (seeds 7 and 13, each with one
+// such firefly, 83% and 73% of the error in two pixels), the six others
+// 0.0055 to 0.0062. The bound 0.011 is 1.75x the worst of those and applies
+// to the median of seeds 7, 11, 13, 17, 19 (0.0062), which three fireflies
+// in five would be needed to move. After 8 passes (seeds 7, 11, 13):
+// 0.0047, 0.0046, 0.0040; mean ratio spm/volpath over the image (seed 7)
+// 0.996 after 2 passes, 1.0015 after 8. In the floor caustic under the sphere (about 5x the floor's
+// radiance) spm/volpath is 0.96 to 1.00 after 2 passes over the seeds and
+// 0.95 after 8 (the radius blurs its peak); a caustic lost (no collapse at
+// the glass) or doubled would leave 0.85 to 1.1.
 TEST(Validation, AreaLitCausticConvergesToMitsuba) {
   const Region caustic{26, 46, 38, 54};
-  const Renders r = validate({"caustic_area", 2, 0.02, {}});
+  Case c{"caustic_area", 2, 0.011, {}};
+  c.seeds = {7, 11, 13, 17, 19};
+  const Renders r = validate(c);
   const double inside = mean_ratio(r.n4, r.ref, caustic, true);
   EXPECT_GT(inside, 0.85) << "spm/volpath in the floor caustic: " << inside;
   EXPECT_LT(inside, 1.1) << "spm/volpath in the floor caustic: " << inside;

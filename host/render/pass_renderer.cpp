@@ -221,17 +221,22 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   // they pass the host budget or the streams run out, and are then gathered
   // and dropped (the estimates are sums over records, so the parts add up
   // to the pass), which bounds the host's memory for any stream count.
-  const uint32_t streams = propagator_.settings().streams;
+  // Terms that read no photon map (--terms emission,direct,...) need no
+  // streams: the pass is then one gather over empty maps.
+  const uint32_t streams = (s.terms & SPM_TERMS_PHOTONS) ? propagator_.settings().streams : 0u;
   PhotonMaps maps;
   bool first_part = true;
-  for (uint32_t first = 0; first < streams;) {
-    const double t = stages.now();
-    const uint32_t count = std::min(propagator_.batch_capacity(), streams - first);
-    append(maps, propagator_.propagate(static_cast<uint32_t>(pass), width, first, count));
-    first += count;
-    out.propagate_seconds += stages.lap();
-    stages.stage("propagate", t);
-    if (first < streams && map_bytes(maps) < host_budget_) continue;
+  uint32_t first = 0;
+  do {
+    if (first < streams) {
+      const double t = stages.now();
+      const uint32_t count = std::min(propagator_.batch_capacity(), streams - first);
+      append(maps, propagator_.propagate(static_cast<uint32_t>(pass), width, first, count));
+      first += count;
+      out.propagate_seconds += stages.lap();
+      stages.stage("propagate", t);
+      if (first < streams && map_bytes(maps) < host_budget_) continue;
+    }
     if (pass == 0 && first_part && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
     stages.lap();
     gather(maps, pass, radius, beam_radius, first_part, out, stages);
@@ -242,7 +247,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
     ++out.counters.host_parts;
     maps = PhotonMaps{};
     first_part = false;
-  }
+  } while (first < streams);
   if (gather_.nonfinite()) {
     throw RuntimeError("gather, pass " + std::to_string(pass) + ": a pixel's radiance is NaN or infinite");
   }

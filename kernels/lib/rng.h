@@ -1,7 +1,8 @@
 /* Counter-based random numbers (METHOD.md section 7): Philox4x32-10 from
  * Random123, key = (seed, pass), counter = (item id, event index, purpose, 0).
  * No state lives in work-item order, so every device and work-group size draws
- * the same numbers for the same photon or pixel sample. */
+ * the same numbers for the same photon or pixel sample. The camera samples
+ * draw under their own key (rng_gather), apart from the streams'. */
 #ifndef SPM_LIB_RNG_H
 #define SPM_LIB_RNG_H
 
@@ -46,6 +47,19 @@ inline SpmRng rng_make(uint seed, uint pass, uint id, uint event) {
   r.sample = 0u;
   r.strata = 0u;
   return r;
+}
+
+/* The camera samples' key: the pass with its top bit set. METHOD.md 7 keys
+ * photons and pixels alike by (seed, pass), and a pixel's counter (pixel,
+ * 256 sample + vertex, purpose, lane) is a stream's (id, event, purpose,
+ * lane) whenever the numbers match: pixel p's first sample would read, at
+ * vertex v, the very uniforms stream p drew at event v, so an estimate and
+ * one of the photons it reads would share their random choices. Passes stay
+ * below 2^31 (the host counts them in 31 bits). */
+#define SPM_RNG_GATHER_DOMAIN 0x80000000u
+
+inline SpmRng rng_gather(uint seed, uint pass, uint pixel, uint event) {
+  return rng_make(seed, pass | SPM_RNG_GATHER_DOMAIN, pixel, event);
 }
 
 /* Uniform float in [0, 1) from the top 24 bits. */
