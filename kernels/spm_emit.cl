@@ -46,7 +46,7 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, SpmStreamParams params, __global uint* 
   st_direction[slot] = (float4)(d, 0.0f);
   const float3 phi = power / (prob * (float)params.pass_streams * (float)params.associated);
   st_phi[slot] = (float4)(phi, 0.0f);
-  st_flux0[slot] = (float)params.associated * max_comp(phi);
+  st_flux0[slot] = max_comp(phi);
   st_event_normal[slot] = (float4)(n, 0.0f);
   st_alive_next[slot] = params.associated;
   st_medium[slot] = l->medium;

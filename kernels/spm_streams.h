@@ -21,7 +21,7 @@
   X(uint, bounces)        /* diffuse bounces so far */                                         \
   X(uint, events)         /* events so far = RNG event index of the next one */                \
   X(uint, depth)          /* path vertices so far, as Mitsuba counts them (METHOD.md 10) */    \
-  X(float, flux0)         /* max over RGB of the emitted stream flux N_a phi (roulette) */     \
+  X(float, flux0)         /* max over RGB of a photon's emitted flux phi (roulette) */        \
   X(uint, medium_events)  /* medium interactions so far (safety cap) */                        \
   X(uint, event)          /* march: SPM_EV_* of the leader's next event; emit: SPM_EV_EMIT */  \
   X(uint, end)            /* SPM_END_*: why the stream ended; SPM_END_NONE while it lives */   \

@@ -312,15 +312,16 @@ uint32_t end_code(StreamEnd end) {
 }
 
 // spm_interact's goes_on: 0 when the stream ends after vertex k, else the
-// survivors' weight 1 / q of Russian roulette (METHOD.md 10).
-float goes_on(uint32_t k, float3 flux, float flux0, const StreamSettings& set, SpmRng rng, StreamResult& out,
+// survivors' weight 1 / q of Russian roulette, q from the flux `phi` of
+// each photon that survives absorption (interact.h on METHOD.md 10).
+float goes_on(uint32_t k, float3 phi, float flux0, const StreamSettings& set, SpmRng rng, StreamResult& out,
               Margins& margins) {
   if (!(set.max_depth == SPM_NONE || k + 2u <= set.max_depth)) {
     out.end = StreamEnd::MaxDepth;
     return 0.0f;
   }
   if (k < set.rr_depth) return 1.0f;
-  const float q = fmin(0.95f, max_comp(flux) / flux0);
+  const float q = fmin(0.95f, max_comp(phi) / flux0);
   const float u = rng4(rng, SPM_RNG_ROULETTE, 0).x;
   if (q < 0.95f) margins.note(u - q, "Russian roulette");
   if (!(u < q)) {
@@ -382,7 +383,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
   };
   respawn(set.associated, emit_rng, false, n);
   float3 phi = power / (prob * (float)set.streams * (float)set.associated);
-  const float flux0 = (float)set.associated * max_comp(phi);
+  const float flux0 = max_comp(phi);
   uint32_t alive = set.associated;
   int medium = l.medium;
   uint32_t bounces = 0, events = 1, medium_events = 0, depth = 0;  // event 0 was the emission
@@ -452,7 +453,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         had_event = true;
         after_specular = false;
         const float3 albedo = load3(m.albedo);
-        const float w = goes_on(k, flux * albedo, flux0, set, rng, out, margins);
+        const float w = goes_on(k, phi * survival(albedo).factor, flux0, set, rng, out, margins);
         if (w == 0.0f) {
           act = kEnd;
         } else if (++medium_events >= SPM_MAX_MEDIUM_EVENTS) {
@@ -537,7 +538,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
             act = kDeposit | kEnd;
             out.end = StreamEnd::MaxBounces;
           } else {
-            const float w = goes_on(k, (float)n * phi * reflectance, flux0, set, rng, out, margins);
+            const float w = goes_on(k, phi * survival(reflectance).factor, flux0, set, rng, out, margins);
             if (w == 0.0f) {
               act = kDeposit | kEnd;
             } else {

@@ -150,6 +150,54 @@ TEST(Roulette, BoundsTheEventsOfStreamsInUnboundedAlbedoOneFog) {
   EXPECT_EQ(maps.volume.size(), c[SPM_COUNT_EV_MEDIUM]);
 }
 
+// Roulette keeps the photons' flux even (interact.h's goes_on, on METHOD.md
+// 10): in a closed grey box of grey fog, absorption keeps a photon's phi,
+// so from rr_depth 1 on each stream survives with q = 0.95 and a photon at
+// depth k carries at most phi0 / 0.95^k; a volume record, the flux of the
+// stream's n <= N_a photons, at most N_a times that. The stream's flux n phi
+// over its emitted N_a phi0, as METHOD.md writes q, would let a stream
+// reduced to a few photons survive with about n / N_a and hand them N_a / n
+// times the flux (this test then fails on both bounds).
+TEST(Roulette, KeepsThePhotonsFluxEven) {
+  const spm::Scene scene = spm::load_scene_string(R"(<scene version="3.0.0">
+  <medium type="homogeneous" id="fog"><float name="sigma_t" value="0.5"/><float name="albedo" value="0.5"/></medium>
+  <sensor type="perspective"><ref id="fog"/></sensor>
+  <shape type="cube">
+    <transform name="to_world"><scale value="4"/></transform>
+    <boolean name="flip_normals" value="true"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+  </shape>
+  <emitter type="point"><point name="position" x="0" y="0" z="0"/><rgb name="intensity" value="1"/></emitter>
+</scene>)",
+                                                  "grey_box.xml");
+  const spm::SceneTables tables = spm::flatten_scene(scene, 1, 1);
+  auto& dev = spm::test::device();
+  const spm::GpuScene gpu(dev, tables);
+  spm::StreamSettings st;
+  st.streams = 4000;
+  st.associated = 50;
+  st.stream_width = 0.1f;
+  st.max_bounces = SPM_NONE;
+  st.rr_depth = 1;
+  const spm::PhotonMaps maps = spm::propagate_streams(dev, gpu, st);
+  const double phi0 = 4.0 * M_PI / (double(st.streams) * st.associated);
+  ASSERT_GT(maps.surface.size(), 1000u);
+  ASSERT_GT(maps.volume.size(), 1000u);
+  double most = 0.0;  // the largest record flux over its bound
+  for (const SpmSurfaceRecord& r : maps.surface) {
+    const double bound = phi0 / std::pow(0.95, double(r.depth_photon >> 16));
+    for (float f : r.flux) most = std::max(most, f / bound);
+  }
+  EXPECT_LT(most, 1.0 + 1e-4) << "a surface record's flux over phi0 / 0.95^depth";
+  EXPECT_GT(most, 0.5) << "the records carry about phi0";
+  most = 0.0;
+  for (const SpmVolumeRecord& r : maps.volume) {
+    const double bound = st.associated * phi0 / std::pow(0.95, double(r.depth));
+    for (float f : r.flux) most = std::max(most, f / bound);
+  }
+  EXPECT_LT(most, 1.0 + 1e-4) << "a volume record's flux over N_a phi0 / 0.95^depth";
+}
+
 // Roulette is unbiased: the image mean with roulette from vertex 1 equals,
 // within 5 standard errors over independent seeds, the one without it
 // (rr_depth past any stream's length: only absorption ends streams).
