@@ -86,27 +86,31 @@ inline uint reverse_bits(uint x) {
          (reverse_byte((x >> 16) & 0xffu) << 8) | reverse_byte(x >> 24);
 }
 
-/* A nested uniform (Owen) scramble of the 32-bit fraction x chosen by
- * `seed`: Laine and Karras's hash permutes each bit by the bits above it
- * when they are reversed (Burley 2020, "Practical Hash-based Owen
- * Scrambling"). On an index it maps every aligned block of 2^k indices
- * onto another. */
-inline uint owen_scramble(uint x, uint seed) {
-  x = reverse_bits(x);
+/* Laine and Karras's hash of x, chosen by `seed`: on bit-reversed values
+ * each bit is permuted by the bits below it, so that between two
+ * reversals it is a nested uniform (Owen) scramble (Burley 2020,
+ * "Practical Hash-based Owen Scrambling"). */
+inline uint laine_karras(uint x, uint seed) {
   x += seed;
   x ^= x * 0x6c50b47cu;
   x ^= x * 0xb82f1e52u;
   x ^= x * 0xc7afe638u;
   x ^= x * 0x8d22f6e6u;
-  return reverse_bits(x);
+  return x;
 }
 
-/* The second dimension of Sobol's sequence as a 32-bit fraction (its
- * generator matrix is Pascal's triangle mod 2; the first dimension is the
- * bit-reversed index). */
-inline uint sobol_second(uint i) {
+/* The nested uniform scramble of the 32-bit fraction x chosen by `seed`.
+ * On an index it maps every aligned block of 2^k indices onto another. */
+inline uint owen_scramble(uint x, uint seed) { return reverse_bits(laine_karras(reverse_bits(x), seed)); }
+
+/* The second dimension of Sobol's sequence as a 32-bit fraction, in
+ * reversed bit order (its generator matrix is Pascal's triangle mod 2,
+ * whose columns reversed start at 1 and go on by v ^= v << 1; the first
+ * dimension, reversed, is the index itself). Both dimensions are then
+ * scrambled on their reversed bits, which saves reversing them twice. */
+inline uint sobol_second_reversed(uint i) {
   uint r = 0u;
-  for (uint v = 1u << 31; i != 0u; i >>= 1, v ^= v >> 1) {
+  for (uint v = 1u; i != 0u; i >>= 1, v ^= v << 1) {
     if (i & 1u) r ^= v;
   }
   return r;
@@ -129,7 +133,8 @@ inline float2 stratify2(SpmRng r, uint purpose, uint lane) {
   philox4x32_ctr_t c = {{r.id, r.event & 255u, SPM_RNG_STRATA, (purpose << 8) | lane}};
   const philox4x32_ctr_t p = philox4x32(c, k);
   const uint i = owen_scramble(r.sample, p.v[0]);
-  return SPM_F2(u01(owen_scramble(reverse_bits(i), p.v[1])), u01(owen_scramble(sobol_second(i), p.v[2])));
+  return SPM_F2(u01(reverse_bits(laine_karras(i, p.v[1]))),
+                u01(reverse_bits(laine_karras(sobol_second_reversed(i), p.v[2]))));
 }
 
 #endif
