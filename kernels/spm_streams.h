@@ -25,7 +25,7 @@
   X(uint, medium_events)  /* medium interactions so far (safety cap) */                        \
   X(uint, event)          /* march: SPM_EV_* of the leader's next event; emit: SPM_EV_EMIT */  \
   X(uint, end)            /* SPM_END_*: why the stream ended; SPM_END_NONE while it lives */   \
-  X(uint, flags)          /* SPM_STREAM_HAD_EVENT, SPM_STREAM_COLLAPSED */                     \
+  X(uint, flags)          /* SPM_STREAM_HAD_EVENT, _COLLAPSED, _AFTER_SPECULAR, _REFILL */     \
   X(uint, record_base)    /* interact: first surface-map slot of this event's deposit */       \
   X(uint, absorb_base)    /* interact: first entry of the stream's photons in the absorb list */ \
   X(uint, id)             /* stream id within the pass: the RNG counter */
@@ -49,6 +49,7 @@
 #define SPM_STREAM_HAD_EVENT 1u
 #define SPM_STREAM_COLLAPSED 2u /* a specular event collapsed the stream (METHOD.md 4) */
 #define SPM_STREAM_AFTER_SPECULAR 4u /* the last event was specular (a medium boundary is none) */
+#define SPM_STREAM_REFILL 8u /* roulette kept the stream with q < 0.95: respawn refills it to N_a photons (interact.h) */
 
 /* The queues of one wavefront iteration (METHOD.md 3). Each kernel moves a
  * stream to one next queue or ends it:

@@ -313,15 +313,18 @@ uint32_t end_code(StreamEnd end) {
 
 // spm_interact's goes_on: 0 when the stream ends after vertex k, else the
 // survivors' weight 1 / q of Russian roulette, q from the flux `phi` of
-// each photon that survives absorption (interact.h on METHOD.md 10).
-float goes_on(uint32_t k, float3 phi, float flux0, const StreamSettings& set, SpmRng rng, StreamResult& out,
-              Margins& margins) {
+// each of the stream's n photons were they all to survive absorption
+// (interact.h on METHOD.md 10); *refill when q < 0.95 and the stream is not
+// collapsed (n is then its alive count).
+float goes_on(uint32_t k, float3 phi, float n, bool collapsed, float flux0, const StreamSettings& set, SpmRng rng,
+              StreamResult& out, Margins& margins, bool* refill) {
   if (!(set.max_depth == SPM_NONE || k + 2u <= set.max_depth)) {
     out.end = StreamEnd::MaxDepth;
     return 0.0f;
   }
   if (k < set.rr_depth) return 1.0f;
-  const float q = fmin(0.95f, max_comp(phi) / flux0);
+  const float q = fmin(0.95f, (collapsed ? (float)set.associated : n) * max_comp(phi) /
+                                   ((float)set.associated * flux0));
   const float u = rng4(rng, SPM_RNG_ROULETTE, 0).x;
   if (q < 0.95f) margins.note(u - q, "Russian roulette");
   if (!(u < q)) {
@@ -329,6 +332,7 @@ float goes_on(uint32_t k, float3 phi, float flux0, const StreamSettings& set, Sp
     ++out.roulette;
     return 0.0f;
   }
+  *refill = !collapsed && q < 0.95f;
   return 1.0f / q;
 }
 
@@ -422,6 +426,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
 
     // ---- spm_interact ----
     uint32_t n = alive;
+    bool refill = false;  // goes_on kept the stream with q < 0.95
     uint32_t act = 0;
     Survival scale;
     float3 event_pos, event_dir, event_normal;
@@ -453,7 +458,8 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         had_event = true;
         after_specular = false;
         const float3 albedo = load3(m.albedo);
-        const float w = goes_on(k, phi * survival(albedo).factor, flux0, set, rng, out, margins);
+        const float w = goes_on(k, phi * survival(albedo).factor, (float)n, out.collapsed, flux0, set, rng, out,
+                                margins, &refill);
         if (w == 0.0f) {
           act = kEnd;
         } else if (++medium_events >= SPM_MAX_MEDIUM_EVENTS) {
@@ -501,7 +507,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
           depth = k;
           had_event = true;
           after_specular = true;
-          const float w = goes_on(k, phi, flux0, set, rng, out, margins);
+          const float w = goes_on(k, phi, 1.0f, true, flux0, set, rng, out, margins, &refill);
           if (w == 0.0f) {
             act = kEnd;
           } else {
@@ -538,7 +544,8 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
             act = kDeposit | kEnd;
             out.end = StreamEnd::MaxBounces;
           } else {
-            const float w = goes_on(k, phi * survival(reflectance).factor, flux0, set, rng, out, margins);
+            const float w = goes_on(k, phi * survival(reflectance).factor, (float)n, out.collapsed, flux0, set, rng,
+                                    out, margins, &refill);
             if (w == 0.0f) {
               act = kDeposit | kEnd;
             } else {
@@ -590,7 +597,13 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
       phi = phi * scale.factor;
     }
 
-    // ---- spm_respawn gives the survivors new offsets ----
+    // ---- spm_respawn refills a stream roulette kept with q < 0.95 and
+    // gives the survivors new offsets ----
+    if (refill && alive_next > 0) {
+      phi = phi * ((float)alive_next / (float)set.associated);
+      alive_next = set.associated;
+      ++out.refills;
+    }
     if ((act & (kSphere | kDisk)) && !out.collapsed) {
       respawn(alive_next, rng, (act & kSphere) != 0, event_normal);
     }

@@ -55,6 +55,7 @@ struct StreamResult {
   uint32_t light = 0;  // index of the emitting light
   uint32_t medium_events = 0, diffuse_events = 0, specular_events = 0, null_events = 0;
   uint32_t escape_events = 0, black_events = 0, capped = 0, roulette = 0;
+  uint32_t refills = 0;  // respawns that refilled the stream to N_a photons (roulette kept it with q < 0.95)
   uint32_t fresnel_reflections = 0, fresnel_refractions = 0;
   bool collapsed = false;  // a specular event collapsed the stream
   // Diffuse and medium events after the collapse (caustics, volumetric caustics).

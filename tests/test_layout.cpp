@@ -68,9 +68,9 @@ TEST(KernelArguments, NamesAreCheckedAtEveryBinding) {
   // Two arguments of one type: swapping the two queues of a stream kernel
   // would run silently without the names.
   cl::Kernel respawn = dev.kernel("spm_respawn", "spm_respawn");
-  EXPECT_EQ(respawn.getArgInfo<CL_KERNEL_ARG_NAME>(0).c_str(), std::string("respawn_queue"));
-  EXPECT_THROW(spm::check_arg_name(respawn, 0, "live_next"), spm::RuntimeError);
-  EXPECT_NO_THROW(spm::check_arg_name(respawn, 1, "live_next"));
+  EXPECT_EQ(respawn.getArgInfo<CL_KERNEL_ARG_NAME>(1).c_str(), std::string("respawn_queue"));
+  EXPECT_THROW(spm::check_arg_name(respawn, 1, "live_next"), spm::RuntimeError);
+  EXPECT_NO_THROW(spm::check_arg_name(respawn, 2, "live_next"));
 }
 
 }  // namespace

@@ -311,7 +311,7 @@ struct Coverage {
   size_t streams = 0, volume = 0, surface_first = 0, surface_later = 0;
   size_t collapsed = 0, collapsed_deposits = 0, collapsed_medium = 0;
   size_t null_crossings = 0, mirror = 0, fresnel_reflect = 0, fresnel_refract = 0, black = 0, escaped = 0, capped = 0;
-  size_t max_bounces = 0, absorbed = 0;
+  size_t max_bounces = 0, absorbed = 0, roulette = 0, refills = 0;
   size_t light[2] = {0, 0};
 };
 
@@ -326,6 +326,7 @@ void compare_pass(float march_step) {
   settings.associated = 8;
   settings.stream_width = 0.5f;
   settings.max_bounces = 4;
+  settings.rr_depth = 2;  // roulette, and its refills, within the four bounces
   settings.march_step = march_step;
   settings.seed = 1234;
   settings.pass = 3;
@@ -409,6 +410,8 @@ void compare_pass(float march_step) {
     cov.capped += ref.capped;
     cov.max_bounces += ref.end == spm::ref::StreamEnd::MaxBounces;
     cov.absorbed += ref.end == spm::ref::StreamEnd::Absorbed;
+    cov.roulette += ref.roulette;
+    cov.refills += ref.refills;
     ++cov.light[std::min(ref.light, 1u)];
   }
   EXPECT_EQ(v, maps.volume.size()) << "volume records of streams outside the pass";
@@ -426,7 +429,8 @@ void compare_pass(float march_step) {
             << " mirror and " << cov.fresnel_reflect << " + " << cov.fresnel_refract
             << " glass reflections + refractions, " << cov.black << " black ends, " << cov.escaped << " escapes, "
             << cov.capped << " capped, " << cov.max_bounces << " at max_bounces, " << cov.absorbed
-            << " absorbed; from the area light " << cov.light[0] << ", the spot " << cov.light[1] << "\n";
+            << " absorbed, " << cov.roulette << " ended by roulette, " << cov.refills
+            << " refilled; from the area light " << cov.light[0] << ", the spot " << cov.light[1] << "\n";
 
   EXPECT_TRUE(mismatches.empty()) << mismatches.size() << " streams differ, first: " << mismatches.front()
                                   << (mismatches.size() > 1 ? "\nsecond: " + mismatches[1] : std::string());
@@ -455,6 +459,8 @@ void compare_pass(float march_step) {
   EXPECT_GT(cov.fresnel_refract, 0u);
   EXPECT_GT(cov.max_bounces, 0u);
   EXPECT_GT(cov.absorbed, 0u);
+  EXPECT_GT(cov.roulette, 0u);
+  EXPECT_GT(cov.refills, 0u);
   EXPECT_GT(cov.light[0], 0u);
   EXPECT_GT(cov.light[1], 0u);
 }

@@ -106,8 +106,8 @@ void StreamPropagator::emit(uint32_t first, uint32_t count) {
   set_args(emit_, scene_, arg("params", p), arg("respawn_queue", respawn_queue_), arg("count", cl_uint(count)),
            arg("first_stream", cl_uint(first)), state_);
   device_.launch(emit_, count);
-  set_args(respawn_, arg("respawn_queue", respawn_queue_), arg("live_next", live_next_), arg("counts", counts_),
-           state_);
+  set_args(respawn_, arg("params", p), arg("respawn_queue", respawn_queue_), arg("live_next", live_next_),
+           arg("counts", counts_), state_);
   device_.launch(respawn_, count);
   live_bound_ = count;
 }
@@ -153,8 +153,8 @@ uint32_t StreamPropagator::step() {
   set_args(absorb_, arg("params", p), arg("absorb_list", absorb_list_), arg("respawn_queue", respawn_queue_),
            arg("counts", counts_), state_);
   device_.launch(absorb_, counters_[SPM_COUNT_ABSORB]);
-  set_args(respawn_, arg("respawn_queue", respawn_queue_), arg("live_next", live_next_), arg("counts", counts_),
-           state_);
+  set_args(respawn_, arg("params", p), arg("respawn_queue", respawn_queue_), arg("live_next", live_next_),
+           arg("counts", counts_), state_);
   device_.launch(respawn_, counters_[SPM_COUNT_ABSORBING]);
   // Specular and null events went to the next live queue already; respawn
   // adds at most the streams absorb had.

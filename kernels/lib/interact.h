@@ -37,20 +37,24 @@ inline uint end_stream(SpmStreams st, uint s, uint why, __global uint* counts, u
 }
 
 /* After the event that made vertex `depth`, with `phi` the flux each of the
- * stream's photons carries after it if it survives absorption: 0 when the
+ * stream's n photons carries after it if it survives absorption: 0 when the
  * stream ends here (no later vertex counts within max_depth, or Russian
- * roulette from rr_depth on with survival q = min(0.95, max_c phi_c / phi0),
- * phi0 a photon's emitted flux), with st->end set, else the survivors'
- * weight 1 / q.
- * METHOD.md 10 writes q with the stream's flux n phi over its emitted
- * n0 phi0. That roulettes the photons twice: absorption already ends each
- * one with its own probability, and a stream whose n fell to 1 would then
- * survive with about 1 / n0 and carry n0 times the flux, so that a pass's
- * few surviving late photons held most of its maps' squared flux (cornell_fog
- * at 100 associated photons: one surface record 13,000 times the mean, the
- * top 1% of records 99.7% of the squared flux; with this q, 138 times and
- * 20%). Per photon, q stays 0.95 while absorption keeps phi and falls only
- * where the flux itself fades, and the work in albedo-1 fog stays bounded. */
+ * roulette from rr_depth on), with st->end set, else the survivors' weight
+ * 1 / q. q = min(0.95, n max_c phi_c / (N_a phi0)), phi0 a photon's emitted
+ * flux: the stream's flux over its emitted flux, were its n photons all to
+ * survive. A stream kept with q < 0.95 is refilled: respawn gives it N_a
+ * photons that share its survivors' flux (SPM_STREAM_REFILL), so that the
+ * streams that lost photons end, as METHOD.md 10 means, while the photons
+ * of those that go on keep about phi0.
+ * METHOD.md 10 has no refill: the survivors of a stream cut down to n
+ * photons carried N_a / n times their flux, so that a pass's few late
+ * photons held most of its maps' squared flux (cornell_fog at 100
+ * associated photons: one surface record 13,000 times the mean, the top 1%
+ * of records 99.7% of the squared flux; with the refill 138 times and 20%,
+ * the rest the red wall's per-channel factor). The refill is exact: the
+ * survivors' offsets are drawn afresh at each respawn anyway, uniform in the
+ * ball or disk, so N_a photons sharing the flux are drawn as n would be.
+ * A collapsed stream (n = 1, phi = N_a phi0 at most) is never refilled. */
 inline float goes_on(const SpmStreamParams* p, SpmStreams st, uint s, uint depth, float3 phi, SpmRng rng,
                      __global uint* counts) {
   if (!depth_counts(depth + 1u, p->max_depth)) {
@@ -58,11 +62,14 @@ inline float goes_on(const SpmStreamParams* p, SpmStreams st, uint s, uint depth
     return 0.0f;
   }
   if (depth < p->rr_depth) return 1.0f;
-  const float q = fmin(0.95f, max_comp(phi) / st.flux0[s]);
+  const bool collapsed = (st.flags[s] & SPM_STREAM_COLLAPSED) != 0u;
+  const float n = collapsed ? (float)p->associated : (float)st.alive[s];
+  const float q = fmin(0.95f, n * max_comp(phi) / ((float)p->associated * st.flux0[s]));
   if (!(rng4(rng, SPM_RNG_ROULETTE, 0).x < q)) {
     end_stream(st, s, SPM_END_ROULETTE, counts, SPM_COUNT_END_ROULETTE);
     return 0.0f;
   }
+  if (!collapsed && q < 0.95f) st.flags[s] |= SPM_STREAM_REFILL;
   return 1.0f / q;
 }
 
