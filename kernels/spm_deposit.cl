@@ -9,13 +9,16 @@
  * surface (an ellipse of area pi w^2 / |cos theta| for a disk of radius w
  * across the direction), and is recorded with flux phi. A collapsed stream
  * deposits its one photon exactly at the hit, so caustics stay sharp
- * (METHOD.md 4). */
+ * (METHOD.md 4). On a rectangle patch a photon landing beyond an edge is
+ * reflected back across it (fold_into_patch), so no record lies off the
+ * surface it was deposited on. */
 #include "spm_types.h"
+#include "lib/intersect.h"
 #include "lib/stream.h"
 
 __kernel void spm_deposit(SpmStreamParams params, const __global uint* deposit_list, const __global uint* counts,
-                          uint surface_first, __global SpmSurfaceRecord* surface, __global uint* absorb_list
-                              SPM_STREAM_PARAMS) {
+                          uint surface_first, __global SpmSurfaceRecord* surface, __global uint* absorb_list,
+                          const __global SpmPatch* patches SPM_STREAM_PARAMS) {
   const uint g = get_global_id(0);
   const uint slot = surface_first + g;
   if (slot >= counts[SPM_COUNT_SURFACE]) return;
@@ -26,9 +29,11 @@ __kernel void spm_deposit(SpmStreamParams params, const __global uint* deposit_l
   const float3 x = st_event_pos[s].xyz;
   const float3 normal = st_event_normal[s].xyz;
   const float4 dir = st_event_dir[s];
-  const float3 p = (st_flags[s] & SPM_STREAM_COLLAPSED)
-                       ? x
-                       : land_on_plane(x, normal, dir.xyz, stream_offset(st_offsets[s], &params, st_id[s], j));
+  float3 p = x;
+  if (!(st_flags[s] & SPM_STREAM_COLLAPSED)) {
+    const SpmPatchFrame patch = patch_frame(patches, as_uint(st_event_pos[s].w));
+    p = fold_into_patch(&patch, land_on_plane(x, normal, dir.xyz, stream_offset(st_offsets[s], &params, st_id[s], j)));
+  }
   __global SpmSurfaceRecord* r = &surface[slot];
   vstore3(p, 0, r->position);
   vstore3(dir.xyz, 0, r->direction);

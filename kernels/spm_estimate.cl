@@ -47,26 +47,31 @@ __kernel void spm_stream_beam_test(const __global SpmGridInfo* info, const __glo
 
 __kernel void spm_surface_test(const __global SpmGridInfo* info, const __global uint* cell_start,
                                const __global float4* item_pos, const __global float4* item_flux,
-                               const __global float4* points, const __global float4* normals, __global float4* out,
-                               uint count, float radius, uint density_kernel, uint max_rec_depth) {
+                               const __global float4* points, const __global float4* normals,
+                               const __global SpmPatch* patches, const __global uint* point_patch,
+                               __global float4* out, uint count, float radius, uint density_kernel,
+                               uint max_rec_depth) {
   const uint i = get_global_id(0);
   if (i >= count) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
-  out[i] = (float4)(
-      surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, density_kernel, max_rec_depth), 0.0f);
+  const SpmPatchFrame patch = patch_frame(patches, point_patch[i]);
+  out[i] = (float4)(surface_estimate(&grid, item_flux, points[i].xyz, normals[i].xyz, radius, density_kernel,
+                                     max_rec_depth, &patch),
+                    0.0f);
 }
 
 __kernel void spm_shared_surface_test(const __global SpmGridInfo* info, const __global uint* cell_start,
                                       const __global float4* item_pos, const __global float4* item_flux,
                                       const __global float4* points, const __global float4* normals,
-                                      const __global uint* depth_limits, __global float4* out, uint count,
+                                      const __global uint* depth_limits, const __global SpmPatch* patches,
+                                      const __global uint* point_patch, __global float4* out, uint count,
                                       float radius, uint density_kernel) {
   if (get_global_id(0) != 0) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   SpmSurfaceReuse reuse = surface_reuse_empty();
   for (uint i = 0; i < count; ++i) {
     out[i] = (float4)(pixel_surface_estimate(&reuse, &grid, item_flux, points[i].xyz, normals[i].xyz, radius,
-                                             density_kernel, depth_limits[i]),
+                                             density_kernel, depth_limits[i], patches, point_patch[i]),
                       0.0f);
   }
 }

@@ -393,12 +393,13 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       const float3 n = facing_normal(&y, wi);
       rng = own;
       if (direct) li += tr * direct_diffuse(s, &y, m, wi, medium, maps->march_step, rng);
+      const SpmPatchFrame patch = patch_frame(s->patches, y.patch);
       if (hop < SPM_GATHER_HOPS && reach < SPM_GATHER_NEAR * maps->radius) {
         tr *= load3(m->reflectance);
         if (surface) {
           li += tr * SPM_INV_PI *
                 surface_estimate(&maps->caustic_grid, maps->caustic_flux, y.p, n, maps->radius, maps->density_kernel,
-                                 depth_limit);
+                                 depth_limit, &patch);
         }
         x = y;
         d = wi;
@@ -406,7 +407,7 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       } else if (surface) {
         li += tr * load3(m->reflectance) * SPM_INV_PI *
               surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, n, maps->radius, maps->density_kernel,
-                               depth_limit);
+                               depth_limit, &patch);
       }
       break;
     }
@@ -482,7 +483,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
           float3 caustic = (float3)(0.0f), gathered = (float3)(0.0f);
           if (maps->terms & SPM_TERM_SURFACE) {
             caustic = pixel_surface_estimate(reuse, &maps->caustic_grid, maps->caustic_flux, surf.p,
-                                             facing_normal(&surf, d), maps->radius, maps->density_kernel, depth_limit);
+                                             facing_normal(&surf, d), maps->radius, maps->density_kernel, depth_limit,
+                                             s->patches, surf.patch);
           }
           if (maps->terms & SPM_TERMS_GATHER) {
             gathered = final_gather(s, maps, &surf, d, medium, specular + 1u, max_depth, rng, tests);
@@ -491,7 +493,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         } else if (maps->terms & SPM_TERM_SURFACE) {
           const float3 flux = pixel_surface_estimate(reuse, &maps->surface_grid, maps->surface_flux, surf.p,
                                                      facing_normal(&surf, d), maps->radius, maps->density_kernel,
-                                                     depth_limit);
+                                                     depth_limit, s->patches, surf.patch);
           L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
         }
       }

@@ -10,6 +10,7 @@
 #define SPM_LAYOUT_STRUCTS(S) \
   S(SpmPrim, 48)              \
   S(SpmPrimNormals, 48)       \
+  S(SpmPatch, 48)             \
   S(SpmBvhNode, 32)           \
   S(SpmShape, 32)             \
   S(SpmMaterial, 32)          \
@@ -30,6 +31,8 @@
   F(SpmPrim, p0) F(SpmPrim, shape) F(SpmPrim, p1) F(SpmPrim, kind) F(SpmPrim, p2)               \
   F(SpmPrim, normals)                                                                           \
   F(SpmPrimNormals, n0) F(SpmPrimNormals, n1) F(SpmPrimNormals, n2)                             \
+  F(SpmPatch, center) F(SpmPatch, half_u) F(SpmPatch, u) F(SpmPatch, half_v) F(SpmPatch, v)     \
+  F(SpmPatch, open)                                                                             \
   F(SpmBvhNode, lo) F(SpmBvhNode, offset) F(SpmBvhNode, hi) F(SpmBvhNode, count_axis)          \
   F(SpmShape, material) F(SpmShape, interior) F(SpmShape, exterior) F(SpmShape, light)          \
   F(SpmShape, flags)                                                                            \

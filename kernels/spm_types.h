@@ -70,8 +70,31 @@ typedef struct SpmPrim {
   spm_float p1[3]; /* triangle vertex 1; sphere: p1[0] = radius */
   spm_uint kind;   /* SPM_PRIM_TRIANGLE or SPM_PRIM_SPHERE */
   spm_float p2[3]; /* triangle vertex 2 */
-  spm_uint normals; /* index into the SpmPrimNormals table, or SPM_NONE (flat) */
+  /* Index into the SpmPrimNormals table; with SPM_PRIM_PATCH set, a flat
+   * triangle's index into the SpmPatch table; SPM_NONE: flat, no patch. */
+  spm_uint normals;
 } SpmPrim;
+
+#define SPM_PRIM_PATCH 0x80000000u
+
+/* A planar rectangle (a rectangle shape, a cube's face) that flat triangles
+ * belong to: centre, unit edge directions u and v and the half extents along
+ * them. Surface estimates and deposits near its edges reflect across them
+ * (README "Surface estimates that stop at edges"), except across the edges
+ * `open` names, where another patch continues the plane. */
+typedef struct SpmPatch {
+  spm_float center[3];
+  spm_float half_u;
+  spm_float u[3];
+  spm_float half_v;
+  spm_float v[3];
+  spm_uint open; /* SPM_PATCH_OPEN_* bits */
+} SpmPatch;
+
+#define SPM_PATCH_OPEN_U_LO 1u
+#define SPM_PATCH_OPEN_U_HI 2u
+#define SPM_PATCH_OPEN_V_LO 4u
+#define SPM_PATCH_OPEN_V_HI 8u
 
 /* Per-vertex shading normals of one triangle (OBJ vertex normals). */
 typedef struct SpmPrimNormals {

@@ -27,7 +27,7 @@ constexpr uint32_t kDeposit = 1, kAbsorb = 2, kSphere = 4, kDisk = 8, kEnd = 16;
 
 // The scene as the kernels' SPM_SCENE sees it (kernels/lib/scene.h).
 SpmScene scene_of(const SceneTables& t) {
-  return make_scene(t.nodes.data(), t.prims.data(), t.normals.data(), t.shapes.data(), t.materials.data(),
+  return make_scene(t.nodes.data(), t.prims.data(), t.normals.data(), t.patches.data(), t.shapes.data(), t.materials.data(),
                     t.media.data(), t.lights.data(), t.light_prims.data(), t.light_cdf.data(), t.grids.data(),
                     t.grid_data.data(), static_cast<uint>(t.prims.size()), static_cast<uint>(t.lights.size()));
 }
@@ -430,6 +430,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
     uint32_t act = 0;
     Survival scale;
     float3 event_pos, event_dir, event_normal;
+    uint32_t event_patch = SPM_NONE;
     bool event_had_event = false, event_caustic = false;
     if (state == Event::Escape) {
       act = kEnd;
@@ -532,6 +533,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         } else {
           out.collapsed_deposits += out.collapsed;
           event_pos = surf.p;
+          event_patch = surf.patch;
           event_dir = dir;
           event_had_event = had_event;
           event_caustic = after_specular;
@@ -575,7 +577,10 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
     // ---- spm_deposit: one record per alive photon, before absorption ----
     if (act & kDeposit) {
       for (uint32_t j = 0; j < n; ++j) {
-        const float3 pos = out.collapsed ? event_pos : land_on_plane(event_pos, event_normal, event_dir, offsets[j]);
+        const SpmPatchFrame patch = patch_frame(sc.patches, event_patch);
+        const float3 pos = out.collapsed ? event_pos
+                                         : fold_into_patch(&patch, land_on_plane(event_pos, event_normal, event_dir,
+                                                                                 offsets[j]));
         SpmSurfaceRecord r{};
         vstore3(pos, 0, r.position);
         vstore3(event_dir, 0, r.direction);

@@ -117,13 +117,25 @@ SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& rec
           dev.upload("surface_pos", items.pos), dev.upload("surface_flux", items.flux)};
 }
 
+// The patch table and the patch of each query point (SPM_NONE: the plain
+// disk sum) of the surface test kernels.
+struct PatchBuffers {
+  cl::Buffer patches, point_patch;
+};
+
+PatchBuffers no_patches(spm::Device& dev, int n) {
+  return {dev.upload("patches", std::vector<SpmPatch>(1)), dev.upload("point_patch", std::vector<cl_uint>(n, SPM_NONE))};
+}
+
 // spm_surface_test's arguments, by name.
 void set_surface_test_args(cl::Kernel& k, const SurfaceBuffers& up, const cl::Buffer& points, const cl::Buffer& normals,
-                           const cl::Buffer& out, int n, float radius, int kernel, uint32_t max_depth) {
+                           const PatchBuffers& patches, const cl::Buffer& out, int n, float radius, int kernel,
+                           uint32_t max_depth) {
   spm::set_args(k, spm::arg("info", up.info), spm::arg("cell_start", up.start), spm::arg("item_pos", up.pos),
                 spm::arg("item_flux", up.flux), spm::arg("points", points), spm::arg("normals", normals),
-                spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("radius", radius),
-                spm::arg("density_kernel", cl_uint(kernel)), spm::arg("max_rec_depth", cl_uint(max_depth)));
+                spm::arg("patches", patches.patches), spm::arg("point_patch", patches.point_patch), spm::arg("out", out),
+                spm::arg("count", cl_uint(n)), spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
+                spm::arg("max_rec_depth", cl_uint(max_depth)));
 }
 
 class BeamEstimate : public ::testing::TestWithParam<std::tuple<int, int, uint32_t>> {};
@@ -394,6 +406,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
   const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals);
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
+  const PatchBuffers none = no_patches(dev, n);
   // The gather's grid (cells of kSurfaceCell r), and point grids of cells
   // smaller and larger than r, which the query must handle alike.
   for (const float cell : {spm::kSurfaceCell, 0.3f, 3.0f}) {
@@ -408,7 +421,7 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
         const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(records.data(), used, radius)
                                                                : spm::build_point_grid(centres, cell * radius);
         const SurfaceBuffers up = upload(dev, records, used, grid);
-        set_surface_test_args(k, up, pb, nb, out, n, radius, kernel, max_depth);
+        set_surface_test_args(k, up, pb, nb, none, out, n, radius, kernel, max_depth);
         dev.launch(k, n);
         const auto got = dev.download<cl_float4>(out, n);
         for (int i = 0; i < n; ++i) {
@@ -487,9 +500,11 @@ TEST(SurfaceEstimate, APixelsSamplesShareOnlyANearbyEstimate) {
                    lb = dev.upload("depth_limits", limits);
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_surface_test");
+  const PatchBuffers none = no_patches(dev, n);
   spm::set_args(k, spm::arg("info", up_buf.info), spm::arg("cell_start", up_buf.start), spm::arg("item_pos", up_buf.pos),
                 spm::arg("item_flux", up_buf.flux), spm::arg("points", pb), spm::arg("normals", nb),
-                spm::arg("depth_limits", lb), spm::arg("out", out), spm::arg("count", cl_uint(n)),
+                spm::arg("depth_limits", lb), spm::arg("patches", none.patches),
+                spm::arg("point_patch", none.point_patch), spm::arg("out", out), spm::arg("count", cl_uint(n)),
                 spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
   dev.launch(k, 1);
   const auto got = dev.download<cl_float4>(out, n);
@@ -548,7 +563,8 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals);
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
-  set_surface_test_args(k, up, pb, nb, out, n, radius, 0, SPM_NONE);
+  const PatchBuffers none = no_patches(dev, n);
+  set_surface_test_args(k, up, pb, nb, none, out, n, radius, 0, SPM_NONE);
   dev.launch(k, n);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<double> estimates;
@@ -559,6 +575,97 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   EXPECT_NEAR(m.mean, expected, 4 * m.error);
   // The spread between query points is the Poisson error of one disk.
   EXPECT_NEAR(m.error * std::sqrt(double(n)), expected / std::sqrt(in_disk), 0.25 * expected / std::sqrt(in_disk));
+}
+
+// Photons spread evenly over a rectangle: at its edges and corners the
+// estimate with the rectangle's patch is the flux density within its
+// standard error (the reflection across the edges gives back the disk's part
+// beyond them), while the plain disk sum falls to a half at an edge and a
+// quarter at a corner. Across an open edge (another patch continues the
+// plane) the photons beyond it count as they are. Query points sit at most
+// 0.3 r inside the edge, a fixed 2 r apart, so their estimates are
+// independent.
+TEST(SurfaceEstimate, PatchEdgesReflectTheDisk) {
+  const float half = 10.0f, radius = 1.0f, phi = 0.01f;
+  const int photons = 40000;
+  SpmPatch patch{};
+  patch.u[0] = 1.0f;
+  patch.v[2] = 1.0f;
+  patch.half_u = patch.half_v = half;
+  SpmPatch open_patch = patch;  // a second rectangle goes on beyond x = +half
+  open_patch.open = SPM_PATCH_OPEN_U_HI;
+  auto& dev = spm::test::device();
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
+  const double expected = photons * phi / (4.0 * half * half);
+  // Query points: along the four edges, and at the four corners.
+  std::vector<cl_float4> edge_points, corner_points;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> inset(0.0f, 0.3f * radius);
+  for (float t = -half + 2.0f * radius; t <= half - 2.0f * radius; t += 2.0f * radius) {
+    for (const float sign : {-1.0f, 1.0f}) {
+      edge_points.push_back({{sign * (half - inset(rng)), 0.0f, t, 0.0f}});
+      edge_points.push_back({{t, 0.0f, sign * (half - inset(rng)), 0.0f}});
+    }
+  }
+  struct Run {
+    std::vector<double> edge, corner, open_edge, plain_edge, plain_corner;
+  } run;
+  for (uint32_t seed = 0; seed < 12; ++seed) {
+    std::mt19937 place(1000 + seed);
+    std::uniform_real_distribution<float> u(-half, half);
+    std::vector<SpmSurfaceRecord> records(photons);
+    for (auto& r : records) {
+      r.position[0] = u(place);
+      r.position[2] = u(place);
+      r.normal[1] = 1.0f;
+      r.flux[0] = r.flux[1] = r.flux[2] = phi;
+      r.flags = SPM_RECORD_HAD_EVENT;
+    }
+    // The open case: as many photons again on the rectangle beyond +x.
+    std::vector<SpmSurfaceRecord> both = records;
+    for (const auto& r : records) {
+      SpmSurfaceRecord o = r;
+      o.position[0] += 2.0f * half;
+      both.push_back(o);
+    }
+    corner_points.clear();
+    for (const float sx : {-1.0f, 1.0f})
+      for (const float sz : {-1.0f, 1.0f}) corner_points.push_back({{sx * (half - inset(rng)), 0.0f, sz * (half - inset(rng)), 0.0f}});
+    const auto estimate = [&](const std::vector<SpmSurfaceRecord>& recs, const std::vector<cl_float4>& points,
+                              const SpmPatch* p) {
+      const std::vector<uint32_t> all = all_of(recs);
+      const SurfaceBuffers up = upload(dev, recs, all, spm::surface_grid(recs.data(), all, radius));
+      const int n = int(points.size());
+      const std::vector<cl_float4> normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
+      const PatchBuffers patches{dev.upload("patches", std::vector<SpmPatch>{p ? *p : SpmPatch{}}),
+                                 dev.upload("point_patch", std::vector<cl_uint>(n, p ? 0u : SPM_NONE))};
+      const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals);
+      const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
+      set_surface_test_args(k, up, pb, nb, patches, out, n, radius, int(seed % 2), SPM_NONE);
+      dev.launch(k, n);
+      std::vector<double> v;
+      for (const auto& g : dev.download<cl_float4>(out, n)) v.push_back(g.s[0]);
+      return v;
+    };
+    const auto append = [](std::vector<double>& to, const std::vector<double>& v) { to.insert(to.end(), v.begin(), v.end()); };
+    append(run.edge, estimate(records, edge_points, &patch));
+    append(run.corner, estimate(records, corner_points, &patch));
+    append(run.plain_edge, estimate(records, edge_points, nullptr));
+    append(run.plain_corner, estimate(records, corner_points, nullptr));
+    // Only the points on the open edge (x near +half) see the photons beyond it.
+    std::vector<cl_float4> open_points;
+    for (const auto& q : edge_points)
+      if (q.s[0] > half - radius) open_points.push_back(q);
+    append(run.open_edge, estimate(both, open_points, &open_patch));
+  }
+  for (const auto* v : {&run.edge, &run.corner, &run.open_edge}) {
+    const auto m = spm::test::mean_and_error(*v);
+    EXPECT_NEAR(m.mean, expected, 4 * m.error) << v->size() << " queries";
+    EXPECT_LT(m.error, 0.03 * expected);  // the test can tell a few per cent
+  }
+  // A disk at most 0.3 r inside an edge keeps 50-69% of its area (10-32% at a corner).
+  EXPECT_LT(spm::test::mean_and_error(run.plain_edge).mean, 0.75 * expected);
+  EXPECT_LT(spm::test::mean_and_error(run.plain_corner).mean, 0.4 * expected);
 }
 
 double rel_mse(const spm::Image& a, const spm::Image& ref) {

@@ -416,6 +416,77 @@ TEST(Streams, AnAreaLightsDiskLandsWholeOnAParallelFloor) {
   EXPECT_LT(ks_statistic(radii, [](double r) { return r * r; }), ks_critical(radii.size()));
 }
 
+// On a rectangle the photons that would land beyond an edge are reflected
+// back across it (fold_into_patch; README "Surface estimates that stop at
+// edges"): with a stream as wide as the floor, every record still lies on
+// the floor, and each stream's records keep its flux.
+TEST(Streams, DepositsStayOnTheirRectangle) {
+  const uint32_t n_a = 32, n_s = 1000;
+  auto s = settings(n_s, n_a);
+  s.stream_width = 1.5f;
+  const std::string xml = R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><scale value="2"/><rotate x="1" angle="-90"/></transform></shape>
+  <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
+</scene>)";
+  const auto tables = tables_of(xml);
+  ASSERT_EQ(tables.patches.size(), 1u);
+  auto& dev = spm::test::device();
+  spm::GpuScene gpu(dev, tables);
+  spm::StreamPropagator propagator(dev, gpu, s);
+  spm::PhotonMaps maps;
+  propagator.emit(0, n_s);
+  const auto phi0 = dev.download<cl_float4>(propagator.state().phi, n_s);
+  const Events e = step_and_flush(propagator, dev, maps, n_s);
+  std::map<uint32_t, double> flux;
+  size_t near_edge = 0;
+  for (const auto& r : maps.surface) {
+    const glm::dvec3 p = v3(r.position);
+    ASSERT_NEAR(p.y, 0.0, 1e-5);
+    ASSERT_LE(std::abs(p.x), 2.0 + 1e-5) << "stream " << r.stream;
+    ASSERT_LE(std::abs(p.z), 2.0 + 1e-5) << "stream " << r.stream;
+    // Hits within w of an edge send photons past it before the fold.
+    const glm::dvec3 x = v3(e.hits[r.stream].s);
+    near_edge += std::max(std::abs(x.x), std::abs(x.z)) > 2.0 - s.stream_width;
+    flux[r.stream] += r.flux[0];
+  }
+  ASSERT_GT(maps.surface.size(), 3000u);
+  EXPECT_GT(near_edge, maps.surface.size() / 4);
+  for (const auto& [id, f] : flux) ASSERT_NEAR(f, n_a * phi0[id].s[0], 1e-5 * n_a * phi0[id].s[0]) << id;
+}
+
+// flatten_scene makes each rectangle, and each face of a cube, a patch, and
+// marks the edges where another patch goes on in the same plane open: the
+// two halves of a floor are not reflected at the line they share.
+TEST(Streams, RectanglesAndCubeFacesArePatches) {
+  const auto tables = tables_of(R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>
+  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/><translate x="2"/></transform></shape>
+  <shape type="cube"><transform name="to_world"><scale x="0.5" y="1" z="2"/><translate y="5"/></transform></shape>
+  <shape type="cube"><transform name="to_world"><rotate y="1" angle="30"/><scale x="3"/><translate y="-9"/></transform></shape>
+  <shape type="sphere"><point name="center" x="0" y="9" z="0"/></shape>
+  <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
+</scene>)");
+  // Two rectangles, six faces, and the sheared cube's four upright faces:
+  // its top and bottom are parallelograms.
+  ASSERT_EQ(tables.patches.size(), 12u);
+  EXPECT_EQ(tables.patches[0].open, SPM_PATCH_OPEN_U_HI);
+  EXPECT_EQ(tables.patches[1].open, SPM_PATCH_OPEN_U_LO);
+  EXPECT_FLOAT_EQ(tables.patches[1].center[0], 2.0f);
+  std::set<std::pair<float, float>> halves;
+  for (size_t i = 2; i < 8; ++i) {
+    EXPECT_EQ(tables.patches[i].open, 0u);
+    halves.insert(std::minmax(tables.patches[i].half_u, tables.patches[i].half_v));
+  }
+  EXPECT_EQ(halves, (std::set<std::pair<float, float>>{{0.5f, 1.0f}, {0.5f, 2.0f}, {1.0f, 2.0f}}));
+  size_t on_patch = 0;
+  for (const SpmPrim& p : tables.prims) {
+    if (p.kind == SPM_PRIM_SPHERE || p.normals == SPM_NONE || !(p.normals & SPM_PRIM_PATCH)) continue;
+    ASSERT_LT(p.normals & ~SPM_PRIM_PATCH, tables.patches.size());
+    ++on_patch;
+  }
+  EXPECT_EQ(on_patch, 24u);
+}
+
 }  // namespace
 
 namespace {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "scene/bvh.h"
 #include "scene/light_power.h"
@@ -30,6 +31,58 @@ double triangle_area(const SpmPrim& p) {
 
 double prim_area(const SpmPrim& p) {
   return p.kind == SPM_PRIM_SPHERE ? 4.0 * kPi * double(p.p1[0]) * double(p.p1[0]) : triangle_area(p);
+}
+
+// The rectangle the quad of triangles a and b splits, when it is one: its
+// four corners in index order a0 a1 a2 a3 (loader.cpp's rectangle and cube
+// faces) with a1 - a0 and a3 - a0 at right angles and a2 = a1 + a3 - a0,
+// to a relative 1e-4.
+std::optional<SpmPatch> quad_patch(const Shape& s, const glm::uvec3& a, const glm::uvec3& b) {
+  std::vector<unsigned> ids = {a.x, a.y, a.z, b.x, b.y, b.z};
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  if (ids.size() != 4) return std::nullopt;
+  const glm::dvec3 p0(s.positions[ids[0]]), p1(s.positions[ids[1]]), p2(s.positions[ids[2]]), p3(s.positions[ids[3]]);
+  const glm::dvec3 eu = p1 - p0, ev = p3 - p0;
+  const double lu = glm::length(eu), lv = glm::length(ev);
+  if (!(lu > 0.0 && lv > 0.0)) return std::nullopt;
+  const double tol = 1e-4 * std::max(lu, lv);
+  if (std::abs(glm::dot(eu, ev)) > tol * std::min(lu, lv) || glm::length(p1 + ev - p2) > tol) return std::nullopt;
+  SpmPatch patch{};
+  put3(patch.center, glm::vec3(0.5 * (p0 + p2)));
+  put3(patch.u, glm::vec3(eu / lu));
+  put3(patch.v, glm::vec3(ev / lv));
+  patch.half_u = static_cast<float>(0.5 * lu);
+  patch.half_v = static_cast<float>(0.5 * lv);
+  return patch;
+}
+
+// Marks the edges of each patch that another patch continues in the same
+// plane (a floor of two rectangles): reflecting there would count the
+// photons beyond the edge twice. An edge is continued when the point just
+// beyond its midpoint lies on another patch of the plane.
+void mark_open_edges(std::vector<SpmPatch>& patches) {
+  const auto v3 = [](const float* f) { return glm::dvec3(f[0], f[1], f[2]); };
+  for (SpmPatch& p : patches) {
+    const glm::dvec3 c = v3(p.center), u = v3(p.u), v = v3(p.v), n = glm::cross(u, v);
+    const double scale = std::max(p.half_u, p.half_v), eps = 1e-3 * scale;
+    const struct {
+      glm::dvec3 point;
+      spm_uint bit;
+    } edges[4] = {{c - (p.half_u + eps) * u, SPM_PATCH_OPEN_U_LO},
+                  {c + (p.half_u + eps) * u, SPM_PATCH_OPEN_U_HI},
+                  {c - (p.half_v + eps) * v, SPM_PATCH_OPEN_V_LO},
+                  {c + (p.half_v + eps) * v, SPM_PATCH_OPEN_V_HI}};
+    for (const SpmPatch& o : patches) {
+      if (&o == &p) continue;
+      const glm::dvec3 oc = v3(o.center), ou = v3(o.u), ov = v3(o.v), on = glm::cross(ou, ov);
+      if (std::abs(glm::dot(n, on)) < 1.0 - 1e-4 || std::abs(glm::dot(oc - c, on)) > eps) continue;
+      for (const auto& e : edges) {
+        const glm::dvec3 q = e.point - oc;
+        if (std::abs(glm::dot(q, ou)) <= o.half_u && std::abs(glm::dot(q, ov)) <= o.half_v) p.open |= e.bit;
+      }
+    }
+  }
 }
 
 // Largest value any lookup inside majorant cell [lo, hi) of an axis of n
@@ -172,14 +225,25 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       t.prims.push_back(p);
       continue;
     }
-    for (const auto& tri : s.triangles) {
+    // SPM_NONE, or the patch triangle k lies on.
+    std::vector<spm_uint> patch_of(s.triangles.size(), SPM_NONE);
+    if (s.quads && s.normals.empty()) {
+      for (size_t k = 0; k + 1 < s.triangles.size(); k += 2) {
+        if (const auto patch = quad_patch(s, s.triangles[k], s.triangles[k + 1])) {
+          patch_of[k] = patch_of[k + 1] = static_cast<spm_uint>(t.patches.size());
+          t.patches.push_back(*patch);
+        }
+      }
+    }
+    for (size_t k = 0; k < s.triangles.size(); ++k) {
+      const glm::uvec3& tri = s.triangles[k];
       SpmPrim p{};
       put3(p.p0, s.positions[tri.x]);
       put3(p.p1, s.positions[tri.y]);
       put3(p.p2, s.positions[tri.z]);
       p.kind = SPM_PRIM_TRIANGLE;
       p.shape = static_cast<spm_uint>(i);
-      p.normals = SPM_NONE;
+      p.normals = patch_of[k] == SPM_NONE ? SPM_NONE : (SPM_PRIM_PATCH | patch_of[k]);
       if (!s.normals.empty()) {
         SpmPrimNormals n{};
         put3(n.n0, s.normals[tri.x]);
@@ -192,6 +256,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
     }
   }
 
+  mark_open_edges(t.patches);
   const auto start = std::chrono::steady_clock::now();
   t.nodes = build_bvh(t.prims).nodes;
   t.bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -254,6 +319,7 @@ GpuScene::GpuScene(Device& device, const SceneTables& t)
     : nodes_(device.upload("nodes", t.nodes)),
       prims_(device.upload("prims", t.prims)),
       normals_(device.upload("normals", t.normals)),
+      patches_(device.upload("patches", t.patches)),
       shapes_(device.upload("shapes", t.shapes)),
       materials_(device.upload("materials", t.materials)),
       media_(device.upload("media", t.media)),
@@ -267,7 +333,7 @@ GpuScene::GpuScene(Device& device, const SceneTables& t)
       num_lights_(static_cast<cl_uint>(t.lights.size())) {
   // Device::upload gives an empty table one element.
   const auto size = [](const auto& v) { return sizeof(v[0]) * std::max<size_t>(1, v.size()); };
-  bytes_ = size(t.nodes) + size(t.prims) + size(t.normals) + size(t.shapes) + size(t.materials) + size(t.media) +
+  bytes_ = size(t.nodes) + size(t.prims) + size(t.normals) + size(t.patches) + size(t.shapes) + size(t.materials) + size(t.media) +
            size(t.lights) + size(t.light_prims) + size(t.light_cdf) + size(t.grids) + size(t.grid_data) +
            sizeof(SpmCamera);
 }
@@ -276,7 +342,7 @@ cl_uint GpuScene::bind(cl::Kernel& k, cl_uint i) const {
   // The names of SPM_SCENE_PARAMS (kernels/lib/scene.h).
   const std::pair<const char*, const cl::Buffer*> tables[] = {
       {"scene_nodes", &nodes_},         {"scene_prims", &prims_},   {"scene_normals", &normals_},
-      {"scene_shapes", &shapes_},       {"scene_materials", &materials_}, {"scene_media", &media_},
+      {"scene_patches", &patches_},     {"scene_shapes", &shapes_},       {"scene_materials", &materials_}, {"scene_media", &media_},
       {"scene_lights", &lights_},       {"scene_light_prims", &light_prims_}, {"scene_light_cdf", &light_cdf_},
       {"scene_grids", &grids_},         {"scene_grid_data", &grid_data_}};
   for (const auto& [name, buffer] : tables) bind_arg(k, i++, name, *buffer);

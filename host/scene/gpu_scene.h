@@ -15,6 +15,7 @@ struct SceneTables {
   std::vector<SpmBvhNode> nodes;
   std::vector<SpmPrim> prims;  // in BVH leaf order
   std::vector<SpmPrimNormals> normals;
+  std::vector<SpmPatch> patches;  // the rectangles flat triangles lie on (SPM_PRIM_PATCH)
   std::vector<SpmShape> shapes;
   std::vector<SpmMaterial> materials;
   std::vector<SpmMedium> media;
@@ -43,12 +44,13 @@ class GpuScene {
   cl_uint bind(cl::Kernel& kernel, cl_uint index) const;
 
   const cl::Buffer& camera() const { return camera_; }
+  const cl::Buffer& patches() const { return patches_; }
 
   size_t bytes() const { return bytes_; }  // device memory of the tables
 
  private:
   size_t bytes_ = 0;
-  DeviceBuffer nodes_, prims_, normals_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, grids_, grid_data_,
+  DeviceBuffer nodes_, prims_, normals_, patches_, shapes_, materials_, media_, lights_, light_prims_, light_cdf_, grids_, grid_data_,
       camera_;
   cl_uint num_prims_ = 0, num_lights_ = 0;
 };

@@ -148,7 +148,7 @@ uint32_t StreamPropagator::step() {
   device_.set_items(march, live);
   device_.set_items(interact, live);
   set_args(deposit_, arg("params", p), arg("deposit_list", deposit_list_), arg("counts", counts_),
-           arg("surface_first", surface_first), arg("surface", surface_), arg("absorb_list", absorb_list_), state_);
+           arg("surface_first", surface_first), arg("surface", surface_), arg("absorb_list", absorb_list_), arg("patches", scene_.patches()), state_);
   device_.launch(deposit_, counters_[SPM_COUNT_SURFACE] - surface_first);
   set_args(absorb_, arg("params", p), arg("absorb_list", absorb_list_), arg("respawn_queue", respawn_queue_),
            arg("counts", counts_), state_);

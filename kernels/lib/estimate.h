@@ -6,6 +6,7 @@
 #define SPM_LIB_ESTIMATE_H
 
 #include "grid.h"
+#include "intersect.h"
 #include "medium.h"
 #include "phase.h"
 
@@ -192,12 +193,29 @@ inline float3 unpack_normal(uint bits) {
  * item k's record, and item_flux[k].w its depth: deeper records than
  * max_rec_depth are left out (METHOD.md 10). The query visits every cell the
  * box [x - r, x + r] touches; the cells of one row are consecutive, and so
- * are their items. */
+ * are their items.
+ * When x lies on a patch whose edge the disk crosses, the part of the disk
+ * beyond the edge holds no photons, and the plain sum would fall towards
+ * half the density at an edge and a quarter at a corner. There the records
+ * of the patch also count at their mirror images across each crossed edge
+ * (and across both at a corner), the reflection method of kernel density
+ * estimation (Silverman 1986, 2.10) that spm_deposit's fold matches, and
+ * records beyond a crossed edge, on another surface in the same plane, are
+ * left out. An image is never nearer x than its record, so the box
+ * holds every record whose image reaches the disk. */
 inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_flux, float3 x, float3 n, float r,
-                               uint density_kernel, uint max_rec_depth) {
+                               uint density_kernel, uint max_rec_depth, const SpmPatchFrame* patch) {
   float3 sum = (float3)(0.0f);
   if (grid->info->records == 0) return sum;
   const float r2 = r * r;
+  const float2 q = patch_coords(patch, x);
+  /* The crossed edges; an open bound is never crossed. */
+  const int lo_u = patch->valid && q.x - r < patch->lo.x, hi_u = patch->valid && q.x + r > patch->hi.x;
+  const int lo_v = patch->valid && q.y - r < patch->lo.y, hi_v = patch->valid && q.y + r > patch->hi.y;
+  const int edges = lo_u || hi_u || lo_v || hi_v;
+  /* Records this far beyond a bound still belong to the patch: they lie on
+   * it up to float rounding. */
+  const float slack = 1e-4f * r;
   /* Grown by a relative 1e-5: float rounding of x +- r must not drop the
    * cell of a record just inside the disk. */
   const float reach = r * 1.00001f;
@@ -216,7 +234,30 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
         if (dot(unpack_normal(as_uint(p.w)), n) <= 0.0f) continue;
         const float4 flux = item_flux[k];
         if (flux.w > (float)max_rec_depth) continue;
-        sum += kernel_2d(density_kernel, d3 - h * h, r2) * flux.xyz;
+        if (!edges) {
+          sum += kernel_2d(density_kernel, d3 - h * h, r2) * flux.xyz;
+          continue;
+        }
+        const float2 e = patch_coords(patch, p.xyz);
+        if ((lo_u && e.x < patch->lo.x - slack) || (hi_u && e.x > patch->hi.x + slack) ||
+            (lo_v && e.y < patch->lo.y - slack) || (hi_v && e.y > patch->hi.y + slack))
+          continue;
+        /* The record's coordinates and their images across the crossed
+         * edges, u and v apart: an image pairs one of each. */
+        const float su[3] = {e.x, lo_u ? 2.0f * patch->lo.x - e.x : e.x, hi_u ? 2.0f * patch->hi.x - e.x : e.x};
+        const float sv[3] = {e.y, lo_v ? 2.0f * patch->lo.y - e.y : e.y, hi_v ? 2.0f * patch->hi.y - e.y : e.y};
+        const int nu[3] = {1, lo_u, hi_u}, nv[3] = {1, lo_v, hi_v};
+        const float h2 = h * h;
+        float w = 0.0f;
+        for (int a = 0; a < 3; ++a) {
+          for (int b = 0; b < 3; ++b) {
+            if (!nu[a] || !nv[b]) continue;
+            const float du = q.x - su[a], dv = q.y - sv[b];
+            const float d2 = du * du + dv * dv;
+            if (d2 + h2 < r2) w += kernel_2d(density_kernel, d2, r2);
+          }
+        }
+        sum += w * flux.xyz;
       }
     }
   }
@@ -241,25 +282,33 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
 typedef struct SpmSurfaceReuse {
   float3 p, n, flux;
   uint depth_limit; /* SPM_NONE - 1 marks an empty entry: no path uses it */
+  uint patch;
 } SpmSurfaceReuse;
 
 inline SpmSurfaceReuse surface_reuse_empty(void) {
   SpmSurfaceReuse r;
   r.p = r.n = r.flux = (float3)(0.0f);
   r.depth_limit = SPM_NONE - 1u;
+  r.patch = SPM_NONE;
   return r;
 }
 
+/* Shared only on the same patch: the estimates of two patches differ by
+ * their edges' images even where the patches meet in one plane. */
 inline float3 pixel_surface_estimate(SpmSurfaceReuse* reuse, const SpmGrid* grid, const __global float4* item_flux,
-                                     float3 x, float3 n, float r, uint density_kernel, uint depth_limit) {
+                                     float3 x, float3 n, float r, uint density_kernel, uint depth_limit,
+                                     const __global SpmPatch* patches, uint patch) {
   const float3 off = x - reuse->p;
   const float reach = SPM_REUSE_DISTANCE * r;
-  if (reuse->depth_limit == depth_limit && dot(off, off) < reach * reach && dot(n, reuse->n) > SPM_REUSE_COS)
+  if (reuse->depth_limit == depth_limit && reuse->patch == patch && dot(off, off) < reach * reach &&
+      dot(n, reuse->n) > SPM_REUSE_COS)
     return reuse->flux;
   reuse->p = x;
   reuse->n = n;
   reuse->depth_limit = depth_limit;
-  reuse->flux = surface_estimate(grid, item_flux, x, n, r, density_kernel, depth_limit);
+  reuse->patch = patch;
+  const SpmPatchFrame frame = patch_frame(patches, patch);
+  reuse->flux = surface_estimate(grid, item_flux, x, n, r, density_kernel, depth_limit, &frame);
   return reuse->flux;
 }
 

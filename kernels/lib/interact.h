@@ -157,7 +157,7 @@ inline uint diffuse_event(const SpmStreamParams* p, SpmStreams st, uint s, const
   const uint depth = st.depth[s] + 1u;
   atomic_inc(&counts[SPM_COUNT_EV_DIFFUSE]);
   if (!depth_counts(depth, p->max_depth)) return end_stream(st, s, SPM_END_DEPTH, counts, SPM_COUNT_END_DEPTH);
-  st.event_pos[s] = (float4)(surf->p, 0.0f);
+  st.event_pos[s] = (float4)(surf->p, as_float(surf->patch)); /* w: the patch spm_deposit folds into */
   const uint flags = st.flags[s];
   const uint record = ((flags & SPM_STREAM_HAD_EVENT) ? SPM_RECORD_HAD_EVENT : 0u) |
                       ((flags & SPM_STREAM_AFTER_SPECULAR) ? SPM_RECORD_CAUSTIC : 0u);

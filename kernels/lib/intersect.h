@@ -127,6 +127,7 @@ typedef struct SpmSurface {
   float3 ng;
   float3 ns;
   uint shape;
+  uint patch;   /* index into SpmPatch, or SPM_NONE */
   float extent; /* the scene's largest coordinate (offset_origin) */
 } SpmSurface;
 
@@ -136,6 +137,7 @@ inline SpmSurface surface_at(const __global SpmPrim* prims, const __global SpmPr
   SpmSurface s;
   s.p = o + h.t * d;
   s.shape = p->shape;
+  s.patch = p->normals != SPM_NONE && (p->normals & SPM_PRIM_PATCH) ? p->normals & ~SPM_PRIM_PATCH : SPM_NONE;
   s.extent = extent;
   if (p->kind == SPM_PRIM_SPHERE) {
     s.ng = normalize(s.p - load3(p->p0));
@@ -144,7 +146,7 @@ inline SpmSurface surface_at(const __global SpmPrim* prims, const __global SpmPr
     const float3 p0 = load3(p->p0);
     s.ng = normalize(cross(load3(p->p1) - p0, load3(p->p2) - p0));
     s.ns = s.ng;
-    if (p->normals != SPM_NONE) {
+    if (p->normals != SPM_NONE && !(p->normals & SPM_PRIM_PATCH)) {
       const __global SpmPrimNormals* n = &normals[p->normals];
       const float3 ns = (1.0f - h.u - h.v) * load3(n->n0) + h.u * load3(n->n1) + h.v * load3(n->n2);
       const float len = length(ns);
@@ -156,6 +158,63 @@ inline SpmSurface surface_at(const __global SpmPrim* prims, const __global SpmPr
     s.ns = -s.ns;
   }
   return s;
+}
+
+/* A patch (SpmPatch) in private memory: centre c, unit edge directions u
+ * and v, and the bounds lo and hi of its local coordinates (dot(p - c, u),
+ * dot(p - c, v)) at the edges where the surface ends; an edge another
+ * patch continues in the same plane has no bound (+-SPM_PATCH_OPEN).
+ * valid = 0: a surface on no patch. */
+#define SPM_PATCH_OPEN 1e30f
+
+typedef struct SpmPatchFrame {
+  float3 c, u, v;
+  float2 lo, hi;
+  int valid;
+} SpmPatchFrame;
+
+inline SpmPatchFrame patch_frame(const __global SpmPatch* patches, uint patch) {
+  SpmPatchFrame f;
+  f.c = f.u = f.v = SPM_F3(0.0f, 0.0f, 0.0f);
+  f.lo = SPM_F2(-SPM_PATCH_OPEN, -SPM_PATCH_OPEN);
+  f.hi = SPM_F2(SPM_PATCH_OPEN, SPM_PATCH_OPEN);
+  f.valid = patch != SPM_NONE;
+  if (!f.valid) return f;
+  const __global SpmPatch* p = &patches[patch];
+  f.c = load3(p->center);
+  f.u = load3(p->u);
+  f.v = load3(p->v);
+  const uint open = p->open;
+  f.lo = SPM_F2((open & SPM_PATCH_OPEN_U_LO) ? -SPM_PATCH_OPEN : -p->half_u,
+                  (open & SPM_PATCH_OPEN_V_LO) ? -SPM_PATCH_OPEN : -p->half_v);
+  f.hi = SPM_F2((open & SPM_PATCH_OPEN_U_HI) ? SPM_PATCH_OPEN : p->half_u,
+                  (open & SPM_PATCH_OPEN_V_HI) ? SPM_PATCH_OPEN : p->half_v);
+  return f;
+}
+
+inline float2 patch_coords(const SpmPatchFrame* f, float3 p) {
+  const float3 q = p - f->c;
+  return SPM_F2(dot(q, f->u), dot(q, f->v));
+}
+
+/* s reflected into [lo, hi] at the bound it lies beyond (and clamped, for
+ * an offset longer than the patch is wide). */
+inline float fold_coord(float s, float lo, float hi) {
+  if (s > hi) s = 2.0f * hi - s;
+  else if (s < lo) s = 2.0f * lo - s;
+  return clamp(s, lo, hi);
+}
+
+/* A point of the patch's plane, reflected across the edges it lies beyond:
+ * where an associated photon lands when its offset from the leader takes it
+ * off the patch (spm_deposit). Reflection keeps the density of photons of
+ * an evenly lit patch even up to its edges, where the photons that would
+ * land beyond an edge land mirrored just inside it (the reflection method
+ * of kernel density estimation, Silverman 1986, 2.10). */
+inline float3 fold_into_patch(const SpmPatchFrame* f, float3 p) {
+  if (!f->valid) return p;
+  const float2 q = patch_coords(f, p);
+  return p + (fold_coord(q.x, f->lo.x, f->hi.x) - q.x) * f->u + (fold_coord(q.y, f->lo.y, f->hi.y) - q.y) * f->v;
 }
 
 /* Mitsuba's rule for the medium a direction leaves into: a shape that names

@@ -8,15 +8,16 @@
 
 #define SPM_SCENE_PARAMS                                                                          \
   const __global SpmBvhNode *scene_nodes, const __global SpmPrim *scene_prims,                    \
-      const __global SpmPrimNormals *scene_normals, const __global SpmShape *scene_shapes,        \
+      const __global SpmPrimNormals *scene_normals, const __global SpmPatch *scene_patches,       \
+      const __global SpmShape *scene_shapes,                                                      \
       const __global SpmMaterial *scene_materials, const __global SpmMedium *scene_media,         \
       const __global SpmLight *scene_lights, const __global SpmLightPrim *scene_light_prims,      \
       const __global float *scene_light_cdf, const __global SpmGridVolume *scene_grids,           \
       const __global float *scene_grid_data, uint scene_num_prims, uint scene_num_lights
 
 #define SPM_SCENE                                                                                 \
-  make_scene(scene_nodes, scene_prims, scene_normals, scene_shapes, scene_materials, scene_media, \
-             scene_lights, scene_light_prims, scene_light_cdf, scene_grids, scene_grid_data, scene_num_prims, \
+  make_scene(scene_nodes, scene_prims, scene_normals, scene_patches, scene_shapes, scene_materials,   \
+             scene_media, scene_lights, scene_light_prims, scene_light_cdf, scene_grids, scene_grid_data, scene_num_prims, \
              scene_num_lights)
 
 /* The medium tables kernels/lib/medium.h reads. */
@@ -30,6 +31,7 @@ typedef struct SpmScene {
   const __global SpmBvhNode* nodes;
   const __global SpmPrim* prims;
   const __global SpmPrimNormals* normals;
+  const __global SpmPatch* patches;
   const __global SpmShape* shapes;
   const __global SpmMaterial* materials;
   const __global SpmLight* lights;
@@ -42,7 +44,8 @@ typedef struct SpmScene {
 } SpmScene;
 
 inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmPrim* prims,
-                           const __global SpmPrimNormals* normals, const __global SpmShape* shapes,
+                           const __global SpmPrimNormals* normals, const __global SpmPatch* patches,
+                           const __global SpmShape* shapes,
                            const __global SpmMaterial* materials, const __global SpmMedium* media,
                            const __global SpmLight* lights, const __global SpmLightPrim* light_prims,
                            const __global float* light_cdf, const __global SpmGridVolume* grids,
@@ -51,6 +54,7 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
   s.nodes = nodes;
   s.prims = prims;
   s.normals = normals;
+  s.patches = patches;
   s.shapes = shapes;
   s.materials = materials;
   s.lights = lights;
