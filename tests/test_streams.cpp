@@ -7,10 +7,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <random>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 #include "scene/loader.h"
 #include "spm/propagate.h"
@@ -454,6 +458,13 @@ TEST(Streams, DepositsStayOnTheirRectangle) {
   for (const auto& [id, f] : flux) ASSERT_NEAR(f, n_a * phi0[id].s[0], 1e-5 * n_a * phi0[id].s[0]) << id;
 }
 
+// The open bit of the edge of patch p that faces direction d (along u or v).
+spm_uint edge_towards(const SpmPatch& p, const glm::dvec3& d) {
+  const double du = glm::dot(v3(p.u), d), dv = glm::dot(v3(p.v), d);
+  if (std::abs(du) > std::abs(dv)) return du > 0 ? SPM_PATCH_OPEN_U_HI : SPM_PATCH_OPEN_U_LO;
+  return dv > 0 ? SPM_PATCH_OPEN_V_HI : SPM_PATCH_OPEN_V_LO;
+}
+
 // flatten_scene makes each rectangle, and each face of a cube, a patch, and
 // marks the edges where another patch goes on in the same plane open: the
 // two halves of a floor are not reflected at the line they share.
@@ -469,8 +480,10 @@ TEST(Streams, RectanglesAndCubeFacesArePatches) {
   // Two rectangles, six faces, and the sheared cube's four upright faces:
   // its top and bottom are parallelograms.
   ASSERT_EQ(tables.patches.size(), 12u);
-  EXPECT_EQ(tables.patches[0].open, SPM_PATCH_OPEN_U_HI);
-  EXPECT_EQ(tables.patches[1].open, SPM_PATCH_OPEN_U_LO);
+  // The two rectangles meet at x = 1: the first is open on its +x edge,
+  // the second on its -x edge, whichever way their u and v point.
+  EXPECT_EQ(tables.patches[0].open, edge_towards(tables.patches[0], {1, 0, 0}));
+  EXPECT_EQ(tables.patches[1].open, edge_towards(tables.patches[1], {-1, 0, 0}));
   EXPECT_FLOAT_EQ(tables.patches[1].center[0], 2.0f);
   std::set<std::pair<float, float>> halves;
   for (size_t i = 2; i < 8; ++i) {
@@ -485,6 +498,64 @@ TEST(Streams, RectanglesAndCubeFacesArePatches) {
     ++on_patch;
   }
   EXPECT_EQ(on_patch, 24u);
+}
+
+// The quads of an OBJ file become patches wherever they are rectangles: a
+// floor of 2 x 2 quads, with and without flat vertex normals, whose edges
+// inside the floor are open and whose outer ones closed, a rectangle
+// shape beside a coplanar OBJ triangle (that edge open), a trapezoid and a
+// quad with curved normals (no patches).
+TEST(Streams, ObjQuadsArePatches) {
+  const auto dir = std::filesystem::temp_directory_path() / ("spm_obj_quads_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  const std::string grid =
+      "v -2 0 -2\nv 0 0 -2\nv 2 0 -2\nv -2 0 0\nv 0 0 0\nv 2 0 0\nv -2 0 2\nv 0 0 2\nv 2 0 2\n";
+  write("floor.obj", grid + "f 1 4 5 2\nf 2 5 6 3\nf 4 7 8 5\nf 5 8 9 6\n");
+  write("floor_n.obj", grid + "vn 0 1 0\nf 1//1 4//1 5//1 2//1\nf 2//1 5//1 6//1 3//1\n"
+                              "f 4//1 7//1 8//1 5//1\nf 5//1 8//1 9//1 6//1\n");
+  write("skirt.obj", "v 1 -5 -1\nv 3 -5 0\nv 1 -5 1\nf 1 3 2\n");
+  write("trapezoid.obj", "v 0 0 0\nv 4 0 0\nv 3 0 1\nv 1 0 1\nf 1 4 3 2\n");
+  write("curved.obj", "v 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nvn 0 1 0\nvn 0.3 0.95 0\nf 1//1 4//2 3//2 2//1\n");
+  const std::string light =
+      R"(<emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>)";
+  const auto load = [&](const std::string& body) {
+    const std::string xml = R"(<scene version="3.0.0">)" + body + light + "</scene>";
+    return spm::flatten_scene(spm::load_scene_string(xml, (dir / "inline.xml").string()), 4, 4);
+  };
+  const auto obj = [](const std::string& file) {
+    return R"(<shape type="obj"><string name="filename" value=")" + file + R"("/></shape>)";
+  };
+  for (const std::string file : {"floor.obj", "floor_n.obj"}) {
+    SCOPED_TRACE(file);
+    const auto tables = load(obj(file));
+    ASSERT_EQ(tables.patches.size(), 4u);
+    for (const SpmPatch& p : tables.patches) {
+      EXPECT_FLOAT_EQ(p.half_u, 1.0f);
+      EXPECT_FLOAT_EQ(p.half_v, 1.0f);
+      // Each quad of the 2 x 2 floor is continued across its two edges
+      // that lie inside the floor, one along each direction.
+      const glm::dvec3 c = v3(p.center);
+      const spm_uint expected = edge_towards(p, {-c.x, 0, 0}) | edge_towards(p, {0, 0, -c.z});
+      EXPECT_EQ(p.open, expected);
+    }
+    // Every triangle is on a patch, so none keeps its normals' index.
+    for (const SpmPrim& p : tables.prims) EXPECT_TRUE(p.normals != SPM_NONE && (p.normals & SPM_PRIM_PATCH));
+  }
+  {
+    // A 2 x 2 rectangle at y = -5 around x = 0; the triangle continues it
+    // beyond x = +1, at the edge's midpoint.
+    const auto tables = load(R"(<shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/>)"
+                             R"(<translate y="-5"/></transform></shape>)" +
+                             obj("skirt.obj"));
+    ASSERT_EQ(tables.patches.size(), 1u);
+    EXPECT_EQ(tables.patches[0].open, edge_towards(tables.patches[0], {1, 0, 0}));
+  }
+  EXPECT_TRUE(load(obj("trapezoid.obj")).patches.empty());
+  const auto curved = load(obj("curved.obj"));
+  EXPECT_TRUE(curved.patches.empty());
+  for (const SpmPrim& p : curved.prims) EXPECT_LT(p.normals, curved.normals.size());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

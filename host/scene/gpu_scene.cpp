@@ -33,23 +33,40 @@ double prim_area(const SpmPrim& p) {
   return p.kind == SPM_PRIM_SPHERE ? 4.0 * kPi * double(p.p1[0]) * double(p.p1[0]) : triangle_area(p);
 }
 
-// The rectangle the quad of triangles a and b splits, when it is one: its
-// four corners in index order a0 a1 a2 a3 (loader.cpp's rectangle and cube
-// faces) with a1 - a0 and a3 - a0 at right angles and a2 = a1 + a3 - a0,
-// to a relative 1e-4.
-std::optional<SpmPatch> quad_patch(const Shape& s, const glm::uvec3& a, const glm::uvec3& b) {
-  std::vector<unsigned> ids = {a.x, a.y, a.z, b.x, b.y, b.z};
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  if (ids.size() != 4) return std::nullopt;
-  const glm::dvec3 p0(s.positions[ids[0]]), p1(s.positions[ids[1]]), p2(s.positions[ids[2]]), p3(s.positions[ids[3]]);
-  const glm::dvec3 eu = p1 - p0, ev = p3 - p0;
+// The rectangle that triangles a and b tile, when they do: they share two
+// corners d0 and d1 (its diagonal), by position, so that vertices split
+// for their normals or texture coordinates still match, and their other
+// corners ca and cb satisfy ca + cb = d0 + d1 (a parallelogram) with
+// d0 - ca and d1 - ca at right angles, both to a relative 1e-4. This holds
+// for rectangle and cube faces (loader.cpp) and for the quads of an OBJ
+// file, which tinyobjloader splits into consecutive triangles.
+std::optional<SpmPatch> quad_patch(const std::vector<glm::vec3>& pos, const glm::uvec3& a, const glm::uvec3& b) {
+  const glm::dvec3 pa[3] = {glm::dvec3(pos[a.x]), glm::dvec3(pos[a.y]), glm::dvec3(pos[a.z])};
+  const glm::dvec3 pb[3] = {glm::dvec3(pos[b.x]), glm::dvec3(pos[b.y]), glm::dvec3(pos[b.z])};
+  bool shared_a[3] = {false, false, false}, shared_b[3] = {false, false, false};
+  int shared = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (pa[i] == pb[j] && !shared_a[i] && !shared_b[j]) {
+        shared_a[i] = shared_b[j] = true;
+        ++shared;
+      }
+  if (shared != 2) return std::nullopt;
+  std::vector<glm::dvec3> diagonal;
+  glm::dvec3 ca{}, cb{};
+  for (int i = 0; i < 3; ++i) {
+    if (shared_a[i]) diagonal.push_back(pa[i]);
+    else ca = pa[i];
+    if (!shared_b[i]) cb = pb[i];
+  }
+  const glm::dvec3 eu = diagonal[0] - ca, ev = diagonal[1] - ca;
   const double lu = glm::length(eu), lv = glm::length(ev);
   if (!(lu > 0.0 && lv > 0.0)) return std::nullopt;
   const double tol = 1e-4 * std::max(lu, lv);
-  if (std::abs(glm::dot(eu, ev)) > tol * std::min(lu, lv) || glm::length(p1 + ev - p2) > tol) return std::nullopt;
+  if (std::abs(glm::dot(eu, ev)) > 1e-4 * lu * lv || glm::length(ca + cb - diagonal[0] - diagonal[1]) > tol)
+    return std::nullopt;
   SpmPatch patch{};
-  put3(patch.center, glm::vec3(0.5 * (p0 + p2)));
+  put3(patch.center, glm::vec3(0.5 * (diagonal[0] + diagonal[1])));
   put3(patch.u, glm::vec3(eu / lu));
   put3(patch.v, glm::vec3(ev / lv));
   patch.half_u = static_cast<float>(0.5 * lu);
@@ -57,15 +74,66 @@ std::optional<SpmPatch> quad_patch(const Shape& s, const glm::uvec3& a, const gl
   return patch;
 }
 
-// Marks the edges of each patch that another patch continues in the same
-// plane (a floor of two rectangles): reflecting there would count the
+// Whether triangle pair k, k + 1 may be a patch: without vertex normals, or
+// with all six equal to the pair's geometric normal (a flat quad of an OBJ
+// file with normals), which shades the same without them.
+bool flat_pair(const Shape& s, const glm::uvec3& a, const glm::uvec3& b) {
+  if (s.normals.empty()) return true;
+  for (const glm::uvec3& t : {a, b}) {
+    const glm::dvec3 p0(s.positions[t.x]), p1(s.positions[t.y]), p2(s.positions[t.z]);
+    const glm::dvec3 ng = glm::normalize(glm::cross(p1 - p0, p2 - p0));
+    for (const unsigned i : {t.x, t.y, t.z})
+      if (glm::dot(glm::dvec3(s.normals[i]), ng) < 1.0 - 1e-6) return false;
+  }
+  return true;
+}
+
+// Whether q lies on a triangle of the scene, other than those of patch
+// `self`, in the plane through q with unit normal n (to eps): a BVH point
+// query, so that marking the edges costs O(P log P) in the primitives.
+bool on_coplanar_triangle(const SceneTables& t, const glm::dvec3& q, const glm::dvec3& n, double eps,
+                          spm_uint self) {
+  std::vector<spm_uint> stack = {0};
+  while (!stack.empty()) {
+    const SpmBvhNode& node = t.nodes[stack.back()];
+    const spm_uint index = stack.back();
+    stack.pop_back();
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) inside = inside && q[a] >= node.lo[a] - eps && q[a] <= node.hi[a] + eps;
+    if (!inside) continue;
+    if (SPM_BVH_COUNT(node) == 0) {
+      stack.push_back(index + 1);
+      stack.push_back(node.offset);
+      continue;
+    }
+    for (spm_uint i = node.offset; i < node.offset + SPM_BVH_COUNT(node); ++i) {
+      const SpmPrim& p = t.prims[i];
+      if (p.kind != SPM_PRIM_TRIANGLE || p.normals == (SPM_PRIM_PATCH | self)) continue;
+      const glm::dvec3 p0(p.p0[0], p.p0[1], p.p0[2]), p1(p.p1[0], p.p1[1], p.p1[2]), p2(p.p2[0], p.p2[1], p.p2[2]);
+      const glm::dvec3 m = glm::cross(p1 - p0, p2 - p0);
+      const double twice_area = glm::length(m);
+      if (std::abs(glm::dot(m, n)) < (1.0 - 1e-4) * twice_area || std::abs(glm::dot(q - p0, m)) > eps * twice_area)
+        continue;
+      // Barycentric signs, each edge's sub-triangle against the whole.
+      const double w0 = glm::dot(glm::cross(p1 - q, p2 - q), m), w1 = glm::dot(glm::cross(p2 - q, p0 - q), m),
+                   w2 = glm::dot(glm::cross(p0 - q, p1 - q), m);
+      if (w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0) return true;
+    }
+  }
+  return false;
+}
+
+// Marks the edges of each patch that the surface continues across in the
+// same plane (a floor of two rectangles, an OBJ floor of many quads, a
+// rectangle beside a coplanar triangle): reflecting there would count the
 // photons beyond the edge twice. An edge is continued when the point just
-// beyond its midpoint lies on another patch of the plane.
-void mark_open_edges(std::vector<SpmPatch>& patches) {
+// beyond its midpoint lies on another triangle of the plane.
+void mark_open_edges(SceneTables& t) {
   const auto v3 = [](const float* f) { return glm::dvec3(f[0], f[1], f[2]); };
-  for (SpmPatch& p : patches) {
+  for (size_t i = 0; i < t.patches.size(); ++i) {
+    SpmPatch& p = t.patches[i];
     const glm::dvec3 c = v3(p.center), u = v3(p.u), v = v3(p.v), n = glm::cross(u, v);
-    const double scale = std::max(p.half_u, p.half_v), eps = 1e-3 * scale;
+    const double eps = 1e-3 * std::max(p.half_u, p.half_v);
     const struct {
       glm::dvec3 point;
       spm_uint bit;
@@ -73,15 +141,8 @@ void mark_open_edges(std::vector<SpmPatch>& patches) {
                   {c + (p.half_u + eps) * u, SPM_PATCH_OPEN_U_HI},
                   {c - (p.half_v + eps) * v, SPM_PATCH_OPEN_V_LO},
                   {c + (p.half_v + eps) * v, SPM_PATCH_OPEN_V_HI}};
-    for (const SpmPatch& o : patches) {
-      if (&o == &p) continue;
-      const glm::dvec3 oc = v3(o.center), ou = v3(o.u), ov = v3(o.v), on = glm::cross(ou, ov);
-      if (std::abs(glm::dot(n, on)) < 1.0 - 1e-4 || std::abs(glm::dot(oc - c, on)) > eps) continue;
-      for (const auto& e : edges) {
-        const glm::dvec3 q = e.point - oc;
-        if (std::abs(glm::dot(q, ou)) <= o.half_u && std::abs(glm::dot(q, ov)) <= o.half_v) p.open |= e.bit;
-      }
-    }
+    for (const auto& e : edges)
+      if (on_coplanar_triangle(t, e.point, n, eps, static_cast<spm_uint>(i))) p.open |= e.bit;
   }
 }
 
@@ -225,14 +286,15 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       t.prims.push_back(p);
       continue;
     }
-    // SPM_NONE, or the patch triangle k lies on.
+    // SPM_NONE, or the patch triangle k lies on: consecutive pairs that tile
+    // a rectangle, taken greedily.
     std::vector<spm_uint> patch_of(s.triangles.size(), SPM_NONE);
-    if (s.quads && s.normals.empty()) {
-      for (size_t k = 0; k + 1 < s.triangles.size(); k += 2) {
-        if (const auto patch = quad_patch(s, s.triangles[k], s.triangles[k + 1])) {
-          patch_of[k] = patch_of[k + 1] = static_cast<spm_uint>(t.patches.size());
-          t.patches.push_back(*patch);
-        }
+    for (size_t k = 0; k + 1 < s.triangles.size(); ++k) {
+      if (!flat_pair(s, s.triangles[k], s.triangles[k + 1])) continue;
+      if (const auto patch = quad_patch(s.positions, s.triangles[k], s.triangles[k + 1])) {
+        patch_of[k] = patch_of[k + 1] = static_cast<spm_uint>(t.patches.size());
+        t.patches.push_back(*patch);
+        ++k;
       }
     }
     for (size_t k = 0; k < s.triangles.size(); ++k) {
@@ -244,7 +306,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       p.kind = SPM_PRIM_TRIANGLE;
       p.shape = static_cast<spm_uint>(i);
       p.normals = patch_of[k] == SPM_NONE ? SPM_NONE : (SPM_PRIM_PATCH | patch_of[k]);
-      if (!s.normals.empty()) {
+      if (!s.normals.empty() && patch_of[k] == SPM_NONE) {
         SpmPrimNormals n{};
         put3(n.n0, s.normals[tri.x]);
         put3(n.n1, s.normals[tri.y]);
@@ -256,10 +318,10 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
     }
   }
 
-  mark_open_edges(t.patches);
   const auto start = std::chrono::steady_clock::now();
   t.nodes = build_bvh(t.prims).nodes;
   t.bvh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  mark_open_edges(t);
 
   // Lights, after the BVH reordered the primitives.
   std::vector<std::vector<spm_uint>> prims_of_shape(scene.shapes.size());

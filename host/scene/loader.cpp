@@ -295,7 +295,6 @@ class Loader {
       ObjMesh mesh;
       if (type == "cube") {
         mesh = cube_mesh();
-        shape.quads = true;
       } else {
         std::optional<std::string> filename = p.get_string("filename");
         if (!filename) ctx_.fail(node, p.what() + " needs a 'filename' property");
@@ -382,7 +381,6 @@ class Loader {
     mesh.triangles = {{0, 1, 2}, {2, 3, 0}};
     if (glm::determinant(l) < 0.0f)
       for (glm::uvec3& t : mesh.triangles) std::swap(t.y, t.z);
-    shape.quads = true;
     to_world_mesh(shape, std::move(mesh), to_world);
   }
 
@@ -434,7 +432,6 @@ class Loader {
       shape.triangles.push_back(t);
     }
     if (shape.triangles.empty()) throw InputError(shape.where, "mesh has no triangles of non-zero area");
-    if (dropped > 0) shape.quads = false;  // the pairs of triangles no longer line up
     if (dropped > 0)
       std::cerr << shape.where << ": warning: dropped " << dropped << " degenerate (zero-area) triangle"
                 << (dropped == 1 ? "" : "s") << " of the shape\n";

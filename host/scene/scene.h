@@ -70,9 +70,6 @@ struct Shape {
   std::vector<glm::vec3> positions;  // mesh, world space
   std::vector<glm::vec3> normals;    // mesh, world space, per vertex; empty = flat
   std::vector<glm::uvec3> triangles;
-  // Triangles 2k and 2k + 1 split one quad (a rectangle, a cube's face):
-  // flatten_scene makes the rectangular ones patches (SpmPatch).
-  bool quads = false;
   glm::vec3 center{0.0f};  // sphere, world space
   float radius = 1.0f;
   bool flip_normals = false;
