@@ -317,7 +317,7 @@ int main(int argc, char** argv) {
                      "Search radius r of the estimates, first pass (integrator 'radius'); default: derived from a "
                      "pilot of the pass's streams, the distance to the 32nd nearest event");
   render->add_option("--alpha", r.alpha,
-                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 2/3");
+                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 0.8");
   render->add_option("--time", r.time,
                      "Render passes for this many seconds instead of a pass count (integrator 'time'); the passes "
                      "end within it, scene load, kernel builds and the pilot reported apart");
