@@ -13,6 +13,7 @@
 #include <random>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include <unistd.h>
 
@@ -298,6 +299,31 @@ Events step_and_flush(spm::StreamPropagator& propagator, spm::Device& dev, spm::
   return e;
 }
 
+// The first step of n_s streams over a square floor at y = 0, `half` wide
+// each way, under a point light at y = 3: the emitted flux, the events and
+// the deposits.
+struct FloorStep {
+  spm::SceneTables tables;
+  std::vector<cl_float4> phi0;
+  Events events;
+  spm::PhotonMaps maps;
+};
+FloorStep floor_step(int half, const spm::StreamSettings& s, uint32_t n_s) {
+  FloorStep out;
+  out.tables = tables_of(R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><scale value=")" +
+                         std::to_string(half) + R"("/><rotate x="1" angle="-90"/></transform></shape>
+  <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
+</scene>)");
+  auto& dev = spm::test::device();
+  spm::GpuScene gpu(dev, out.tables);
+  spm::StreamPropagator propagator(dev, gpu, s);
+  propagator.emit(0, n_s);
+  out.phi0 = dev.download<cl_float4>(propagator.state().phi, n_s);
+  out.events = step_and_flush(propagator, dev, out.maps, n_s);
+  return out;
+}
+
 // Squeezes a landing `off` (from the hit, in the floor y = 0) by |cos theta|
 // along the in-plane direction of travel d: the radius and angle of the
 // point of the stream's cross-section it came from, in units of w.
@@ -361,18 +387,8 @@ TEST(Streams, DepositsAreTheStreamsCrossSectionOnTheSurface) {
   const uint32_t n_a = 32, n_s = 500;
   auto s = settings(n_s, n_a);
   s.stream_width = 1.5f;
-  const std::string xml = R"(<scene version="3.0.0">
-  <shape type="rectangle"><transform name="to_world"><scale value="1000"/><rotate x="1" angle="-90"/></transform></shape>
-  <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
-</scene>)";
-  const auto tables = tables_of(xml);
-  auto& dev = spm::test::device();
-  spm::GpuScene gpu(dev, tables);
-  spm::StreamPropagator propagator(dev, gpu, s);
-  spm::PhotonMaps maps;
-  propagator.emit(0, n_s);
-  const auto phi0 = dev.download<cl_float4>(propagator.state().phi, n_s);
-  const Events e = step_and_flush(propagator, dev, maps, n_s);
+  const FloorStep f = floor_step(1000, s, n_s);
+  const auto& [phi0, e, maps] = std::tie(f.phi0, f.events, f.maps);
   std::vector<double> radii, angles;
   std::map<uint32_t, double> flux;
   for (const auto& r : maps.surface) {
@@ -428,19 +444,9 @@ TEST(Streams, DepositsStayOnTheirRectangle) {
   const uint32_t n_a = 32, n_s = 1000;
   auto s = settings(n_s, n_a);
   s.stream_width = 1.5f;
-  const std::string xml = R"(<scene version="3.0.0">
-  <shape type="rectangle"><transform name="to_world"><scale value="2"/><rotate x="1" angle="-90"/></transform></shape>
-  <emitter type="point"><point name="position" x="0" y="3" z="0"/><rgb name="intensity" value="1"/></emitter>
-</scene>)";
-  const auto tables = tables_of(xml);
-  ASSERT_EQ(tables.patches.size(), 1u);
-  auto& dev = spm::test::device();
-  spm::GpuScene gpu(dev, tables);
-  spm::StreamPropagator propagator(dev, gpu, s);
-  spm::PhotonMaps maps;
-  propagator.emit(0, n_s);
-  const auto phi0 = dev.download<cl_float4>(propagator.state().phi, n_s);
-  const Events e = step_and_flush(propagator, dev, maps, n_s);
+  const FloorStep f = floor_step(2, s, n_s);
+  ASSERT_EQ(f.tables.patches.size(), 1u);
+  const auto& [phi0, e, maps] = std::tie(f.phi0, f.events, f.maps);
   std::map<uint32_t, double> flux;
   size_t near_edge = 0;
   for (const auto& r : maps.surface) {
