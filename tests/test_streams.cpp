@@ -472,8 +472,8 @@ spm_uint edge_towards(const SpmPatch& p, const glm::dvec3& d) {
 }
 
 // flatten_scene makes each rectangle, and each face of a cube, a patch, and
-// marks the edges where another patch goes on in the same plane open: the
-// two halves of a floor are not reflected at the line they share.
+// marks the edges where another coplanar triangle goes on open: the two
+// halves of a floor are not reflected at the line they share.
 TEST(Streams, RectanglesAndCubeFacesArePatches) {
   const auto tables = tables_of(R"(<scene version="3.0.0">
   <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/></transform></shape>

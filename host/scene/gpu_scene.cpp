@@ -52,10 +52,10 @@ std::optional<SpmPatch> quad_patch(const std::vector<glm::vec3>& pos, const glm:
         ++shared;
       }
   if (shared != 2) return std::nullopt;
-  std::vector<glm::dvec3> diagonal;
-  glm::dvec3 ca{}, cb{};
+  glm::dvec3 diagonal[2], ca{}, cb{};
+  int ends = 0;
   for (int i = 0; i < 3; ++i) {
-    if (shared_a[i]) diagonal.push_back(pa[i]);
+    if (shared_a[i]) diagonal[ends++] = pa[i];
     else ca = pa[i];
     if (!shared_b[i]) cb = pb[i];
   }
