@@ -58,6 +58,7 @@ typedef struct SpmMaps {
 #define SPM_TR_NEE_CAMERA 2u
 #define SPM_TR_NEE_SHADOW 3u
 #define SPM_TR_FINAL_GATHER 4u
+#define SPM_TR_EMISSION 5u /* and up: chain j of emission_chains uses call 5 + j */
 inline uint tr_lane(uint call, uint i) { return ((call << 5) | i) << 16; }
 
 /* Transmittance from o towards a light at `dist` along d, through null
@@ -415,12 +416,94 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
   }
 }
 
+/* Whether the camera ray through film point (fx, fy), past null
+ * boundaries, first meets a mirror, glass or a light. */
+inline bool sees_chain_start(const SpmScene* s, const __global SpmCamera* cam, float fx, float fy) {
+  float3 o;
+  float tmin, tmax;
+  const float3 d = camera_ray(cam, fx, fy, &o, &tmin, &tmax);
+  for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
+    SpmHit h;
+    if (!scene_intersect(s, o + tmin * d, d, tmax - tmin, &h)) return false;
+    h.t += tmin;
+    const SpmSurface surf = scene_surface(s, o, d, h);
+    const __global SpmShape* shape = &s->shapes[surf.shape];
+    const uint type = s->materials[shape->material].type;
+    if (shape->light >= 0 || type == SPM_MAT_MIRROR || type == SPM_MAT_DIELECTRIC) return true;
+    if (type != SPM_MAT_NULL) return false;
+    o = leave_surface(&surf, d);
+    tmin = 0.0f;
+    tmax = SPM_INF;
+  }
+  return false;
+}
+
+/* The emission camera sample `rng` sees through pixel (px, py), directly
+ * or through specular chains, by `chains` camera rays of its own: each
+ * with its own point of the pixel filter (the chains of all the render's
+ * samples of the pixel read one stratified sequence, stratify2) and its
+ * own reflect-or-refract choices, each weighted 1 / chains. A light seen
+ * through glass or in a curved mirror is an image much smaller than a
+ * pixel (caustic_area's light through the sphere: 0.04% of one), which a
+ * pixel's few samples find only now and then, each time as a firefly; the
+ * chains are a few rays each, against the thousands of records a sample's
+ * estimates read, so the pixels where they start (sees_chain_start) take
+ * many. The mean is the sample path's own emission term, which leaves it
+ * out there (radiance's `emission`). */
+inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, uint px,
+                              uint py, uint max_depth, SpmRng rng, uint chains) {
+  float3 sum = (float3)(0.0f);
+  const uint first_event = rng.event;
+  for (uint j = 0; j < chains; ++j) {
+    SpmRng r = rng;
+    r.sample = rng.sample * chains + j;
+    const float2 u = stratify2(r, SPM_RNG_EMISSION, 0u);
+    const float2 off = sample_filter(cam, u.x, u.y);
+    float3 o;
+    float tmin, tmax;
+    float3 d = camera_ray(cam, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
+    float3 beta = (float3)(1.0f);
+    int medium = cam->medium;
+    uint specular = 0;
+    for (uint vertex = 0; vertex < 4u * SPM_MAX_CAMERA_SPECULAR + 4u; ++vertex) {
+      r.event = first_event + vertex;
+      SpmHit h;
+      if (!scene_intersect(s, o + tmin * d, d, tmax - tmin, &h)) break;
+      h.t += tmin;
+      beta *= medium_transmittance(&s->md, medium, o, d, tmin, h.t, maps->march_step, r,
+                                   tr_lane(SPM_TR_EMISSION + j, 0u));
+      const SpmSurface surf = scene_surface(s, o, d, h);
+      const __global SpmShape* shape = &s->shapes[surf.shape];
+      const __global SpmMaterial* m = &s->materials[shape->material];
+      if (shape->light >= 0 && dot(d, surf.ng) < 0.0f && within_depth(specular + 1u, max_depth))
+        sum += beta * load3(s->lights[shape->light].emission);
+      tmin = 0.0f;
+      tmax = SPM_INF;
+      if (m->type == SPM_MAT_NULL) {
+        medium = target_medium(shape, surf.ng, d, medium);
+        o = leave_surface(&surf, d);
+        continue;
+      }
+      if (m->type == SPM_MAT_DIFFUSE) break;
+      if (++specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(specular + 1u, max_depth)) break;
+      float3 next;
+      const float f = specular_bounce(m, &surf, d, rng4(r, SPM_RNG_EMISSION, j).x, true, &next);
+      if (f == 0.0f) break;
+      beta *= f;
+      medium = target_medium(shape, surf.ng, next, medium);
+      o = leave_surface(&surf, next);
+      d = next;
+    }
+  }
+  return sum / (float)chains;
+}
+
 /* One camera sample's radiance. Path depths count as Mitsuba's volpath
  * counts them: emission seen after `specular` specular vertices has
  * specular + 1 segments, direct light at the diffuse vertex that ends the
  * chain specular + 2. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
-                       float tmin, float tmax, uint max_depth, SpmRng rng, SpmSurfaceReuse* reuse,
+                       float tmin, float tmax, uint max_depth, bool emission, SpmRng rng, SpmSurfaceReuse* reuse,
                        SpmVolumeReuse* volume_reuse, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
@@ -460,10 +543,10 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     const SpmSurface surf = scene_surface(s, o, d, h);
     const __global SpmShape* shape = &s->shapes[surf.shape];
     const __global SpmMaterial* m = &s->materials[shape->material];
-    /* Emission seen directly or through specular chains: paths end at their
-     * first diffuse vertex, whose light NEE and the photon maps provide. */
-    if (maps->direct_terms && (maps->terms & SPM_TERM_EMISSION) && shape->light >= 0 && dot(d, surf.ng) < 0.0f &&
-        within_depth(specular + 1u, max_depth)) {
+    /* Emission seen directly or through specular chains, unless the pixel's
+     * emission chains bring it (emission_chains): paths end at their first
+     * diffuse vertex, whose light NEE and the photon maps provide. */
+    if (emission && shape->light >= 0 && dot(d, surf.ng) < 0.0f && within_depth(specular + 1u, max_depth)) {
       L += beta * load3(s->lights[shape->light].emission);
     }
     tmin = 0.0f;
@@ -518,8 +601,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
  * lib/estimate.h): at 1 sample per pixel the 2x2 pixels then read one disk
  * instead of four while the disk spans several pixels. */
 __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __global SpmCamera* camera,
-                         __global float4* film, __global uint* sphere_tests, __global uint* errors, uint first_pixel,
-                         uint count SPM_MAP_PARAMS) {
+                         __global float4* film, __global uint* sphere_tests, __global uint* errors,
+                         const __global uchar* chain_pixels, uint first_pixel, uint count SPM_MAP_PARAMS) {
   /* A tile of `count` pixels from first_pixel: the film of a whole image may
    * not fit one allocation. A block that straddles the tile's ends is
    * gathered whole and writes only its pixels in the tile, so that every
@@ -559,11 +642,16 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.terms = params.terms;
   SpmSurfaceReuse reuse = surface_reuse_empty();
   SpmVolumeReuse volume_reuse = volume_reuse_empty();
+  const bool emission = params.direct_terms && (params.terms & SPM_TERM_EMISSION);
   for (uint q = 0; q < SPM_GATHER_BLOCK * SPM_GATHER_BLOCK; ++q) {
     const uint px = SPM_GATHER_BLOCK * bx + q % SPM_GATHER_BLOCK;
     const uint py = SPM_GATHER_BLOCK * by + q / SPM_GATHER_BLOCK;
     if (px >= width || py >= camera->height) continue;
     const uint pixel = py * width + px;
+    /* A pixel of the block outside the tile writes nothing, so its emission
+     * needs no flag. */
+    const bool in_tile = pixel >= first_pixel && pixel <= last;
+    const bool chains = emission && params.emission_chains > 0u && in_tile && chain_pixels[pixel - first_pixel];
     uint tests = 0;
     float3 sum = (float3)(0.0f);
     for (uint i = 0; i < params.spp; ++i) {
@@ -576,13 +664,35 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
       float3 o;
       float tmin, tmax;
       const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
-      sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, rng, &reuse, &volume_reuse, &tests);
+      sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, emission && !chains, rng, &reuse,
+                      &volume_reuse, &tests);
+      if (chains) sum += emission_chains(&s, &maps, camera, px, py, params.max_depth, rng, params.emission_chains);
     }
-    if (pixel < first_pixel || pixel > last) continue;
+    if (!in_tile) continue;
     /* A NaN or infinity is a bug to find, not a value to clamp: the host
      * fails the render when this bit is set. */
     if (!all(isfinite(sum))) atomic_or(errors, SPM_ERROR_NONFINITE);
     film[pixel - first_pixel] = (float4)(sum / (float)params.spp, 1.0f);
     sphere_tests[pixel - first_pixel] = tests;
   }
+}
+
+/* spm_chain_pixels: one work-item per pixel of a tile of `count` from
+ * first_pixel. To: chain_pixels, 1 where a corner of the pixel sees a
+ * mirror, glass or a light (sees_chain_start), whose emission spm_gather
+ * then takes from emission_chains. The probe draws no random numbers and
+ * does not depend on the pass, so each pixel's emission has the same
+ * estimator in every pass and on every device, and the gather's estimate
+ * stays unbiased whichever pixels it flags. Run once per tile, not per
+ * pass. */
+__kernel void spm_chain_pixels(SPM_SCENE_PARAMS, const __global SpmCamera* camera, __global uchar* chain_pixels,
+                               uint first_pixel, uint count) {
+  const uint i = get_global_id(0);
+  if (i >= count) return;
+  const SpmScene s = SPM_SCENE;
+  const uint pixel = first_pixel + i;
+  const float px = (float)(pixel % camera->width), py = (float)(pixel / camera->width);
+  chain_pixels[i] = (uchar)(sees_chain_start(&s, camera, px, py) || sees_chain_start(&s, camera, px + 1.0f, py) ||
+                            sees_chain_start(&s, camera, px, py + 1.0f) ||
+                            sees_chain_start(&s, camera, px + 1.0f, py + 1.0f));
 }

@@ -68,6 +68,7 @@
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
   F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
   F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
+  F(SpmGatherParams, emission_chains)                                                            \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

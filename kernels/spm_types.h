@@ -322,7 +322,10 @@ typedef struct SpmGatherParams {
   spm_uint first_sample;   /* the render's index of the pass's first sample per pixel (stratify2) */
   spm_uint strata_seed;    /* which scrambled sequence those indices read (stratify2) */
   spm_uint terms;          /* SPM_TERM_* bits of the terms to add; SPM_TERMS_ALL */
-  spm_uint pad[1];
+  /* Camera rays per sample that bring the emission seen through pixels
+   * that see a mirror, glass or a light (spm_gather.cl, emission_chains);
+   * 0: each sample's own path brings it everywhere. */
+  spm_uint emission_chains;
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

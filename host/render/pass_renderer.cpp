@@ -192,6 +192,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.first_sample = first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass) * s.spp);
     params.strata_seed = strata_seed_;
     params.terms = s.terms;
+    params.emission_chains = cl_uint(in.emission_chains);
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();
     stages.stage("gather", t);

@@ -126,6 +126,10 @@ struct IntegratorSettings {
   // box (README "A slower radius schedule"). The photon noise, not the
   // radius's bias, is most of the error at the pass counts users run.
   float alpha = 0.8f;
+  // Camera rays per sample that bring the emission seen in pixels whose
+  // corners see a mirror, glass or a light (spm_gather.cl, emission_chains);
+  // 0: each sample's path brings it, everywhere.
+  int emission_chains = 16;
   std::string where;
 };
 

@@ -23,9 +23,11 @@ Gather::Gather(Device& device, const GpuScene& scene, size_t width, size_t pixel
       pixels_(pixels),
       tile_(tile_size(device, pixels, share)),
       kernel_(device.kernel("spm_gather", "spm_gather")),
+      chain_kernel_(device.kernel("spm_gather", "spm_chain_pixels")),
       film_(device.buffer(sizeof(cl_float4) * tile_, "film", CL_MEM_WRITE_ONLY)),
       sphere_tests_(device.buffer(sizeof(cl_uint) * tile_, "sphere_tests", CL_MEM_WRITE_ONLY)),
-      errors_(device.buffer(sizeof(cl_uint), "errors")) {
+      errors_(device.buffer(sizeof(cl_uint), "errors")),
+      chain_pixels_(device.buffer(sizeof(cl_uchar) * tile_, "chain_pixels")) {
   const cl_uint no_error = 0;
   device_.queue().enqueueWriteBuffer(errors_, CL_TRUE, 0, sizeof no_error, &no_error);
 }
@@ -35,9 +37,16 @@ uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::
   uint64_t tests = 0;
   for (size_t first = 0; first < pixels_; first += tile_) {
     const size_t count = std::min(tile_, pixels_ - first);
+    // The flags do not depend on the pass: an image of one tile probes once.
+    if (params.emission_chains > 0 && chain_tile_ != first) {
+      set_args(chain_kernel_, scene_, arg("camera", scene_.camera()), arg("chain_pixels", chain_pixels_),
+               arg("first_pixel", cl_uint(first)), arg("count", cl_uint(count)));
+      device_.launch(chain_kernel_, count);
+      chain_tile_ = first;
+    }
     set_args(kernel_, scene_, arg("params", params), arg("camera", scene_.camera()), arg("film", film_),
-             arg("sphere_tests", sphere_tests_), arg("errors", errors_), arg("first_pixel", cl_uint(first)),
-             arg("count", cl_uint(count)), grids);
+             arg("sphere_tests", sphere_tests_), arg("errors", errors_), arg("chain_pixels", chain_pixels_),
+             arg("first_pixel", cl_uint(first)), arg("count", cl_uint(count)), grids);
     // A work-item per block of SPM_GATHER_BLOCK^2 pixels, over the block
     // rows the tile touches (spm_gather.cl).
     const size_t block_rows = (first + count - 1) / width_ / SPM_GATHER_BLOCK - first / width_ / SPM_GATHER_BLOCK + 1;

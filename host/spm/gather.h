@@ -15,8 +15,9 @@ namespace spm {
 
 class Gather {
  public:
-  // Device bytes per pixel of a tile: its film entry and sphere-test count.
-  static constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uint);
+  // Device bytes per pixel of a tile: its film entry, sphere-test count and
+  // whether its emission comes from emission chains (spm_chain_pixels).
+  static constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uint) + sizeof(cl_uchar);
 
   // An image `width` pixels wide of `pixels` pixels, gathered in launches of
   // at most kMaxTile pixels whose buffers fit the device's largest
@@ -36,8 +37,10 @@ class Gather {
   Device& device_;
   const GpuScene& scene_;
   size_t width_ = 0, pixels_ = 0, tile_ = 0;
-  cl::Kernel kernel_;
-  DeviceBuffer film_, sphere_tests_, errors_;
+  cl::Kernel kernel_, chain_kernel_;
+  DeviceBuffer film_, sphere_tests_, errors_, chain_pixels_;
+  // The first pixel of the tile whose flags chain_pixels_ holds; none yet.
+  size_t chain_tile_ = SIZE_MAX;
 };
 
 }  // namespace spm

@@ -25,6 +25,7 @@
 #define SPM_RNG_FINAL_GATHER 12u
 #define SPM_RNG_TRANSMITTANCE 13u
 #define SPM_RNG_STRATA 14u
+#define SPM_RNG_EMISSION 15u
 
 /* sample, strata: a camera sample's index among its pixel's samples of the
  * whole render, and the scrambled sequence it reads (stratify2; 0 and 0
