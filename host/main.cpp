@@ -61,7 +61,7 @@ struct RenderArgs {
   std::string profile_json, trace;
   std::optional<size_t> device_memory;
   // Overrides of the scene's <integrator type="spm"> properties.
-  std::optional<int> streams, associated, beam_streams, bounces, max_depth, rr_depth, emission_chains;
+  std::optional<int> streams, associated, beam_streams, bounces, max_depth, rr_depth, emission_chains, volume_every;
   std::optional<float> stream_width, march_step, radius, alpha, time;
   std::optional<std::string> estimator, density_kernel, direct;
   bool final_gather = false, no_final_gather = false;
@@ -86,6 +86,7 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   if (a.max_depth) in.max_depth = *a.max_depth;
   if (a.rr_depth) in.rr_depth = *a.rr_depth;
   if (a.emission_chains) in.emission_chains = *a.emission_chains;
+  if (a.volume_every) in.volume_every = *a.volume_every;
   if (a.stream_width) in.stream_width = *a.stream_width;
   if (a.march_step) in.march_step = *a.march_step;
   if (a.radius) in.radius = *a.radius;
@@ -316,6 +317,10 @@ int main(int argc, char** argv) {
                      "light: a light seen through glass is an image far smaller than a pixel (integrator "
                      "'emission_chains'); 0: each sample's own path; default 16")
       ->check(CLI::Range(0, 1024));
+  render->add_option("--volume-every", r.volume_every,
+                     "One camera sample in this many per pixel and pass adds the camera segments' volume estimate, "
+                     "weighted to stand for the others (integrator 'volume_every'); 1: every sample; default 4")
+      ->check(CLI::Range(1, 1 << 20));
   render->add_option("--march-step", r.march_step,
                      "Ray-marching interval in media (integrator 'march_step'); 0: exact free flights, and in heterogeneous "
                      "media delta and ratio tracking; default 0");

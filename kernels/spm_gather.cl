@@ -498,12 +498,15 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
   return sum / (float)chains;
 }
 
-/* One camera sample's radiance. Path depths count as Mitsuba's volpath
- * counts them: emission seen after `specular` specular vertices has
- * specular + 1 segments, direct light at the diffuse vertex that ends the
- * chain specular + 2. */
+/* One camera sample's radiance; `emission`: whether it adds the emission it
+ * sees (emission_chains), `volume_weight`: the weight of its camera
+ * segments' volume estimate, 0 to leave it out (spm_gather). Path depths
+ * count as Mitsuba's volpath counts them: emission seen after `specular`
+ * specular vertices has specular + 1 segments, direct light at the diffuse
+ * vertex that ends the chain specular + 2. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
-                       float tmin, float tmax, uint max_depth, bool emission, SpmRng rng, SpmSurfaceReuse* reuse,
+                       float tmin, float tmax, uint max_depth, bool emission, float volume_weight, SpmRng rng,
+                       SpmSurfaceReuse* reuse,
                        SpmVolumeReuse* volume_reuse, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
@@ -524,8 +527,9 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
        * (camera_volume_estimate); null boundaries before it leave it straight. */
       const bool first = specular == 0u && !crossed_medium;
       crossed_medium = true;
-      if (maps->terms & SPM_TERM_VOLUME) {
-        L += beta * (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth,
+      if ((maps->terms & SPM_TERM_VOLUME) && volume_weight > 0.0f) {
+        L += beta * volume_weight *
+             (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth,
                                                       depth_limit, tests)
                              : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
       }
@@ -664,8 +668,15 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
       float3 o;
       float tmin, tmax;
       const float3 d = camera_ray(camera, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
-      sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, emission && !chains, rng, &reuse,
-                      &volume_reuse, &tests);
+      /* The camera segments' volume estimate reads the same pass's records
+       * for every sample of the pixel, so its noise is the pass's photon
+       * noise, which more samples do not average away, while it is the
+       * gather's costliest term: the first volume_samples samples add it
+       * for all (each sample's point of the pixel is uniform, so the mean
+       * stays; README "Camera volume estimates for one sample in four"). */
+      const float volume_weight = i < params.volume_samples ? (float)params.spp / (float)params.volume_samples : 0.0f;
+      sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, emission && !chains, volume_weight, rng,
+                      &reuse, &volume_reuse, &tests);
       if (chains) sum += emission_chains(&s, &maps, camera, px, py, params.max_depth, rng, params.emission_chains);
     }
     if (!in_tile) continue;

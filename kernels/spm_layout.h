@@ -23,7 +23,7 @@
   S(SpmBeam, 64)              \
   S(SpmSurfaceRecord, 64)     \
   S(SpmStreamParams, 64)      \
-  S(SpmGatherParams, 64)      \
+  S(SpmGatherParams, 80)      \
   S(SpmGridInfo, 32)
 
 /* F(struct, field) */
@@ -68,7 +68,7 @@
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
   F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
   F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
-  F(SpmGatherParams, emission_chains)                                                            \
+  F(SpmGatherParams, emission_chains) F(SpmGatherParams, volume_samples)                         \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

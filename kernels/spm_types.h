@@ -326,6 +326,11 @@ typedef struct SpmGatherParams {
    * that see a mirror, glass or a light (spm_gather.cl, emission_chains);
    * 0: each sample's own path brings it everywhere. */
   spm_uint emission_chains;
+  /* The first volume_samples of a pixel's samples in the pass add the
+   * camera segments' volume estimate, weighted spp / volume_samples; the
+   * others leave it out (spm_gather). */
+  spm_uint volume_samples;
+  spm_uint pad[3];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

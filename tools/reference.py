@@ -242,19 +242,21 @@ def load_scene(scene_path: Path, text: str, defines: dict):
     return mi.load_string(text, **defines)
 
 
-def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log, overhead: float = 0.0):
+def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log, overhead: float = 0.0,
+           first_chunk: int = 0):
     """Renders `spp` samples per pixel in chunks of at most `chunk_spp` (each
     an independent mi.render with its own seed) and averages them; with a
     time budget, renders chunks until the budget is spent: a chunk that would
     overrun it is halved until it fits, its time predicted from the last
     chunk's as `overhead` (seconds per launch) plus a time per sample, so
-    that the budget's tail is not left unused. Returns (image as float32
-    HxWx3 numpy array, spp rendered, render seconds)."""
+    that the budget's tail is not left unused. Chunks are numbered from
+    `first_chunk` (a resumed reference's next one). Returns (image as
+    float32 HxWx3 numpy array, spp rendered, render seconds)."""
     import mitsuba as mi
     import numpy as np
     acc = None
     done = 0
-    chunks = 0
+    chunks = first_chunk
     start = time.perf_counter()
     last = 0.0
     last_n = 1
@@ -279,7 +281,7 @@ def render(scene, spp: int, seed: int, chunk_spp: int, time_budget: float, log, 
         acc = img * n if acc is None else acc + img * n
         done += n
         chunks += 1
-        if time_budget <= 0 and (chunks % 8 == 0 or done >= spp):
+        if time_budget <= 0 and ((chunks - first_chunk) % 8 == 0 or done >= spp):
             log(f"{done}/{spp} spp, {time.perf_counter() - start:.1f} s")
     seconds = time.perf_counter() - start
     return (acc / done).astype(np.float32), done, seconds
@@ -325,6 +327,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path, default=None,
                    help="metadata record (default: OUTPUT with .json)")
     p.add_argument("--force", action="store_true", help="render even when OUTPUT is up to date")
+    p.add_argument("--resume", type=Path, default=None, metavar="EXR",
+                   help="continue this reference (its JSON beside it: the same scene, defines, integrator, "
+                        "seed and chunks) up to --spp: only the chunks it lacks are rendered, and the result "
+                        "is the image a render of --spp from scratch gives")
     p.add_argument("--print-scene", action="store_true",
                    help="print the rewritten scene Mitsuba is given and exit")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
@@ -362,6 +368,15 @@ def main() -> int:
         "variant_requested": args.variant,
         "mitsuba_requirement": MITSUBA_REQUIREMENT,
     }
+    resumed = None
+    if args.resume is not None:
+        resumed = json.loads(args.resume.with_suffix(".json").read_text())
+        same = {k: v for k, v in resumed["request"].items() if k != "spp_requested"}
+        if same != {k: v for k, v in request.items() if k != "spp_requested"} or args.time > 0:
+            raise SystemExit(f"reference: --resume {args.resume}: its record asks for another render "
+                             f"(scene, defines, integrator, seed or a time budget differ)")
+        if sha256_file(args.resume) != resumed["sha256"]:
+            raise SystemExit(f"reference: --resume {args.resume}: the EXR does not match its record's SHA-256")
     if not args.force and out.exists() and meta_path.exists():
         try:
             old = json.loads(meta_path.read_text())
@@ -384,7 +399,21 @@ def main() -> int:
     log(f"{scene_path} with volpath (max_depth {args.max_depth}, rr_depth {args.rr_depth}) at "
         f"{size[0]}x{size[1]}, " + (f"{args.time} s" if args.time > 0 else f"{spp} spp") +
         f", variant {variant}, Mitsuba {mi.__version__}")
-    image, spp_done, seconds = render(scene, spp, args.seed, chunk, args.time, log)
+    if resumed is not None:
+        if resumed["chunk_spp"] != chunk or resumed["spp"] % chunk or resumed["spp"] >= spp:
+            raise SystemExit(f"reference: --resume {args.resume}: {resumed['spp']} spp in chunks of "
+                             f"{resumed['chunk_spp']} cannot continue to {spp} in chunks of {chunk}")
+        import numpy as np
+        first = resumed["spp"] // chunk
+        image, spp_done, seconds = render(scene, spp - resumed["spp"], args.seed, chunk, 0.0, log,
+                                          first_chunk=first)
+        old = np.array(mi.Bitmap(str(args.resume)), dtype=np.float64)[..., :3]
+        image = ((old * resumed["spp"] + image.astype(np.float64) * spp_done) /
+                 (resumed["spp"] + spp_done)).astype(np.float32)
+        spp_done += resumed["spp"]
+        seconds += resumed["render_seconds"]
+    else:
+        image, spp_done, seconds = render(scene, spp, args.seed, chunk, args.time, log)
     write_exr(out, image)
     digest = sha256_file(out)
     command = "tools/reference.py " + " ".join(

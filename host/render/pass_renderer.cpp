@@ -193,6 +193,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.strata_seed = strata_seed_;
     params.terms = s.terms;
     params.emission_chains = cl_uint(in.emission_chains);
+    params.volume_samples = cl_uint((s.spp + in.volume_every - 1) / in.volume_every);
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();
     stages.stage("gather", t);

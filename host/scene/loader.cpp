@@ -774,6 +774,7 @@ class Loader {
     int_at_least("max_depth", s.max_depth, -1);
     int_at_least("rr_depth", s.rr_depth, 1);
     int_at_least("emission_chains", s.emission_chains, 0);
+    int_at_least("volume_every", s.volume_every, 1);
     auto checked_float = [&](const char* name, float& field, bool strictly_positive) {
       if (std::optional<float> v = p.get_float(name)) {
         if (strictly_positive ? !(*v > 0.0f) : !(*v >= 0.0f))

@@ -130,6 +130,12 @@ struct IntegratorSettings {
   // corners see a mirror, glass or a light (spm_gather.cl, emission_chains);
   // 0: each sample's path brings it, everywhere.
   int emission_chains = 16;
+  // One camera sample in volume_every per pixel and pass adds the camera
+  // segments' volume estimate, weighted to stand for the others: the
+  // estimate is the same pass's records for every sample of a pixel, and
+  // it is the gather's costliest term (README "Camera volume estimates
+  // for one sample in four").
+  int volume_every = 4;
   std::string where;
 };
 
