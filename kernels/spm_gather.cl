@@ -416,6 +416,39 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
   }
 }
 
+/* The emission a camera path sees at surf, arriving along d after
+ * `specular` specular vertices: the light's radiance where surf emits
+ * towards the path and the path is within max_depth, else 0. */
+inline float3 seen_emission(const SpmScene* s, const __global SpmShape* shape, const SpmSurface* surf, float3 d,
+                            uint specular, uint max_depth) {
+  if (shape->light < 0 || dot(d, surf->ng) >= 0.0f || !within_depth(specular + 1u, max_depth)) return (float3)(0.0f);
+  return load3(s->lights[shape->light].emission);
+}
+
+/* A camera path's step past surf: through a null boundary (switching the
+ * medium), or off a mirror or glass by the choice u (METHOD.md 3),
+ * counting the specular vertex. False where the path ends: at a diffuse
+ * surface, past the specular cap or max_depth, or where the bounce has no
+ * weight. */
+inline bool camera_step(const __global SpmShape* shape, const __global SpmMaterial* m, const SpmSurface* surf,
+                        float u, uint max_depth, uint* specular, float3* beta, int* medium, float3* o, float3* d) {
+  if (m->type == SPM_MAT_NULL) {
+    *medium = target_medium(shape, surf->ng, *d, *medium);
+    *o = leave_surface(surf, *d);
+    return true;
+  }
+  if (m->type == SPM_MAT_DIFFUSE) return false;
+  if (++*specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(*specular + 1u, max_depth)) return false;
+  float3 next;
+  const float f = specular_bounce(m, surf, *d, u, true, &next);
+  if (f == 0.0f) return false;
+  *beta *= f;
+  *medium = target_medium(shape, surf->ng, next, *medium);
+  *o = leave_surface(surf, next);
+  *d = next;
+  return true;
+}
+
 /* Whether the camera ray through film point (fx, fy), past null
  * boundaries, first meets a mirror, glass or a light. */
 inline bool sees_chain_start(const SpmScene* s, const __global SpmCamera* cam, float fx, float fy) {
@@ -474,25 +507,12 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
                                    tr_lane(SPM_TR_EMISSION + j, 0u));
       const SpmSurface surf = scene_surface(s, o, d, h);
       const __global SpmShape* shape = &s->shapes[surf.shape];
-      const __global SpmMaterial* m = &s->materials[shape->material];
-      if (shape->light >= 0 && dot(d, surf.ng) < 0.0f && within_depth(specular + 1u, max_depth))
-        sum += beta * load3(s->lights[shape->light].emission);
+      sum += beta * seen_emission(s, shape, &surf, d, specular, max_depth);
       tmin = 0.0f;
       tmax = SPM_INF;
-      if (m->type == SPM_MAT_NULL) {
-        medium = target_medium(shape, surf.ng, d, medium);
-        o = leave_surface(&surf, d);
-        continue;
-      }
-      if (m->type == SPM_MAT_DIFFUSE) break;
-      if (++specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(specular + 1u, max_depth)) break;
-      float3 next;
-      const float f = specular_bounce(m, &surf, d, rng4(r, SPM_RNG_EMISSION, j).x, true, &next);
-      if (f == 0.0f) break;
-      beta *= f;
-      medium = target_medium(shape, surf.ng, next, medium);
-      o = leave_surface(&surf, next);
-      d = next;
+      if (!camera_step(shape, &s->materials[shape->material], &surf, rng4(r, SPM_RNG_EMISSION, j).x, max_depth,
+                       &specular, &beta, &medium, &o, &d))
+        break;
     }
   }
   return sum / (float)chains;
@@ -550,16 +570,9 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     /* Emission seen directly or through specular chains, unless the pixel's
      * emission chains bring it (emission_chains): paths end at their first
      * diffuse vertex, whose light NEE and the photon maps provide. */
-    if (emission && shape->light >= 0 && dot(d, surf.ng) < 0.0f && within_depth(specular + 1u, max_depth)) {
-      L += beta * load3(s->lights[shape->light].emission);
-    }
+    if (emission) L += beta * seen_emission(s, shape, &surf, d, specular, max_depth);
     tmin = 0.0f;
     tmax = SPM_INF;
-    if (m->type == SPM_MAT_NULL) {
-      medium = target_medium(shape, surf.ng, d, medium);
-      o = leave_surface(&surf, d);
-      continue;
-    }
     if (m->type == SPM_MAT_DIFFUSE) {
       if (reflects_from(m, &surf, d)) {
         const bool nee = maps->direct_terms && (maps->terms & SPM_TERM_DIRECT) && maps->direct == SPM_DIRECT_NEE &&
@@ -586,14 +599,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       }
       break;
     }
-    if (++specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(specular + 1u, max_depth)) break;
-    float3 next;
-    const float f = specular_bounce(m, &surf, d, rng4(rng, SPM_RNG_BSDF, 0).x, true, &next);
-    if (f == 0.0f) break;
-    beta *= f;
-    medium = target_medium(shape, surf.ng, next, medium);
-    o = leave_surface(&surf, next);
-    d = next;
+    if (!camera_step(shape, m, &surf, rng4(rng, SPM_RNG_BSDF, 0).x, max_depth, &specular, &beta, &medium, &o, &d))
+      break;
   }
   return L;
 }

@@ -19,9 +19,8 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-struct Seeds {
+struct Seeds : spm::test::Measured {  // of the image means
   std::vector<std::vector<float>> images;  // one pass per seed
-  double mean = 0.0, standard_error = 0.0;  // of the image means
 };
 
 // One pass of `spp` samples per seed, seeds 100, 101, ...
@@ -29,23 +28,17 @@ Seeds render_seeds(const std::string& text, int chains, uint32_t terms, int seed
   spm::Scene scene = spm::load_scene_string(text, "chains.xml");
   scene.integrator.emission_chains = chains;
   Seeds out;
-  double sum = 0.0, sum2 = 0.0;
+  std::vector<double> means;
   for (int k = 0; k < seeds; ++k) {
     spm::RenderSettings s;
     s.passes = 1;
     s.spp = spp;
     s.seed = 100 + uint32_t(k);
     s.terms = terms;
-    const spm::Image image = spm::render(scene, s, spm::test::device());
-    double m = 0.0;
-    for (float v : image.rgb) m += v;
-    m /= double(image.rgb.size());
-    sum += m;
-    sum2 += m * m;
-    out.images.push_back(image.rgb);
+    out.images.push_back(spm::render(scene, s, spm::test::device()).rgb);
+    means.push_back(spm::test::image_mean(out.images.back()));
   }
-  out.mean = sum / seeds;
-  out.standard_error = std::sqrt((sum2 / seeds - out.mean * out.mean) / (seeds - 1));
+  static_cast<spm::test::Measured&>(out) = spm::test::mean_of(means);
   return out;
 }
 

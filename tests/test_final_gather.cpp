@@ -77,35 +77,25 @@ std::string far_scene() {
 // the bound.
 std::string near_scene() { return planes_scene(8.0f, 6.0f, 60.0f, 2.0f, 6.0f, 7.9f, ""); }
 
-struct Measured {
-  double mean = 0.0, standard_error = 0.0;
-};
-
 // The image mean (all channels) of one pass per seed, over `seeds` seeds:
 // the passes are independent, so their spread gives the standard error.
-Measured image_means(const std::string& text, bool final_gather, int seeds) {
+spm::test::Measured image_means(const std::string& text, bool final_gather, int seeds) {
   spm::Scene scene = spm::load_scene_string(text, "final_gather.xml");
   scene.integrator.final_gather = final_gather;
-  double sum = 0.0, sum2 = 0.0;
+  std::vector<double> means;
   for (int k = 0; k < seeds; ++k) {
     spm::RenderSettings s;
     s.passes = 1;
     s.seed = 100 + k;
-    const spm::Image image = spm::render(scene, s, spm::test::device());
-    double m = 0.0;
-    for (float v : image.rgb) m += v;
-    m /= double(image.rgb.size());
-    sum += m;
-    sum2 += m * m;
+    means.push_back(spm::test::image_mean(spm::render(scene, s, spm::test::device()).rgb));
   }
-  const double mean = sum / seeds, var = (sum2 / seeds - mean * mean) * seeds / (seeds - 1);
-  return {mean, std::sqrt(var / seeds)};
+  return spm::test::mean_of(means);
 }
 
 // Asserts that the final gather's and the direct lookup's image means agree.
 void expect_same_mean(const std::string& text) {
   const int seeds = 48;
-  const Measured with = image_means(text, true, seeds), without = image_means(text, false, seeds);
+  const spm::test::Measured with = image_means(text, true, seeds), without = image_means(text, false, seeds);
   const double se = std::sqrt(with.standard_error * with.standard_error +
                               without.standard_error * without.standard_error);
   std::printf("final gather %.5f +- %.5f, direct lookup %.5f +- %.5f\n", with.mean, with.standard_error,

@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "device/device.h"
 #include "spm_types.h"
@@ -37,6 +39,29 @@ inline int marked_line(const std::string& text) {
   const size_t at = text.find("<!--here-->");
   EXPECT_NE(at, std::string::npos) << "text without <!--here-->";
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+}
+
+// The mean over pixels and channels of an image's values.
+inline double image_mean(const std::vector<float>& rgb) {
+  double m = 0.0;
+  for (float v : rgb) m += v;
+  return m / double(rgb.size());
+}
+
+// The mean of independent draws and its standard error.
+struct Measured {
+  double mean = 0.0, standard_error = 0.0;
+};
+
+inline Measured mean_of(const std::vector<double>& draws) {
+  const double n = double(draws.size());
+  double sum = 0.0, sum2 = 0.0;
+  for (double x : draws) {
+    sum += x;
+    sum2 += x * x;
+  }
+  const double mean = sum / n;
+  return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / (n - 1.0))};
 }
 
 // A coloured Henyey-Greenstein medium for the estimates' brute-force tests:

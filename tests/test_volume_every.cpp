@@ -27,25 +27,20 @@ double volume_mean(int every, int spp, uint32_t seed) {
   s.spp = spp;
   s.seed = seed;
   s.terms = SPM_TERM_VOLUME;
-  const spm::Image image = spm::render(scene, s, spm::test::device());
-  double m = 0.0;
-  for (float v : image.rgb) m += v;
-  return m / double(image.rgb.size());
+  return spm::test::image_mean(spm::render(scene, s, spm::test::device()).rgb);
 }
 
 TEST(VolumeEvery, KeepsTheVolumeEstimatesMean) {
   const int seeds = 12;
   for (int spp : {8, 6}) {
-    double sum = 0.0, sum2 = 0.0, base = 0.0;
+    std::vector<double> differences;
+    double base = 0.0;
     for (int k = 0; k < seeds; ++k) {
       const double all = volume_mean(1, spp, 200 + uint32_t(k));
-      const double d = volume_mean(4, spp, 200 + uint32_t(k)) - all;
+      differences.push_back(volume_mean(4, spp, 200 + uint32_t(k)) - all);
       base += all / seeds;
-      sum += d;
-      sum2 += d * d;
     }
-    const double mean = sum / seeds;
-    const double se = std::sqrt((sum2 / seeds - mean * mean) / (seeds - 1));
+    const auto [mean, se] = spm::test::mean_of(differences);
     std::printf("spp %d: volume term %.6f, every 4 minus every sample %.3g +- %.3g\n", spp, base, mean, se);
     ASSERT_GT(base, 0.0);
     EXPECT_NEAR(mean, 0.0, 4.0 * se + 1e-6 * base) << "spp " << spp;
