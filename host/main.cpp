@@ -62,7 +62,7 @@ struct RenderArgs {
   std::optional<size_t> device_memory;
   // Overrides of the scene's <integrator type="spm"> properties.
   std::optional<int> streams, associated, beam_streams, bounces, max_depth, rr_depth, emission_chains, volume_every;
-  std::optional<float> stream_width, march_step, radius, alpha, time;
+  std::optional<float> stream_width, march_step, radius, volume_radius, alpha, time;
   std::optional<std::string> estimator, density_kernel, direct;
   bool final_gather = false, no_final_gather = false;
   std::vector<std::string> terms;
@@ -79,6 +79,7 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   positive(a.beam_streams, "--beam-streams");
   positive(a.stream_width, "--stream-width");
   positive(a.radius, "--radius");
+  positive(a.volume_radius, "--volume-radius");
   if (a.streams) in.streams = *a.streams;
   if (a.associated) in.associated = *a.associated;
   if (a.beam_streams) in.beam_streams = *a.beam_streams;
@@ -90,6 +91,7 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   if (a.stream_width) in.stream_width = *a.stream_width;
   if (a.march_step) in.march_step = *a.march_step;
   if (a.radius) in.radius = *a.radius;
+  if (a.volume_radius) in.volume_radius = *a.volume_radius;
   if (a.alpha) in.alpha = *a.alpha;
   if (a.time) in.time = *a.time;
   if (a.estimator) in.estimator = *a.estimator;
@@ -327,6 +329,9 @@ int main(int argc, char** argv) {
   render->add_option("--radius", r.radius,
                      "Search radius r of the estimates, first pass (integrator 'radius'); default: derived from a "
                      "pilot of the pass's streams, the distance to the 32nd nearest event");
+  render->add_option("--volume-radius", r.volume_radius,
+                     "Kernel radius of the volume records' estimate, first pass, shrinking as the radius does "
+                     "(integrator 'volume_radius'); default: the radius");
   render->add_option("--alpha", r.alpha,
                      "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 0.8");
   render->add_option("--time", r.time,

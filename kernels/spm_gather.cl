@@ -38,6 +38,7 @@ typedef struct SpmMaps {
   SpmGrid caustic_grid;
   const __global float4* caustic_flux;
   float radius;
+  float volume_radius; /* the volume records' kernel radius (integrator volume_radius) */
   float beam_radius;
   uint density_kernel;
   uint estimator;
@@ -220,9 +221,9 @@ inline float3 medium_nee(const SpmScene* s, int medium, float3 o, float3 d, floa
 inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
                                float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab, uint* tests) {
   return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d, t0, t1,
-                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests) +
+                       maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests) +
          beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, medium, o, d, t0, t1,
-                       maps->radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
+                       maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
 }
 
 /* The volume estimate (records or stream beams) along [t0, t1] in a
@@ -289,7 +290,7 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
 inline float3 camera_volume_estimate(SpmVolumeReuse* reuse, const SpmScene* s, const SpmMaps* maps, int medium,
                                      float3 o, float3 d, float t0, float t1, uint min_depth, uint max_depth,
                                      uint* tests) {
-  if (volume_reuse_hit(reuse, o, d, t0, t1, medium, min_depth, max_depth, maps->radius)) return reuse->L;
+  if (volume_reuse_hit(reuse, o, d, t0, t1, medium, min_depth, max_depth, maps->volume_radius)) return reuse->L;
   const float3 L = volume_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
   if (!isinf(t1)) reuse->L = L;
   return L;
@@ -645,6 +646,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.final_gather = params.final_gather;
   maps.march_step = params.march_step;
   maps.radius = params.radius;
+  maps.volume_radius = params.volume_radius;
   maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;
   maps.estimator = params.estimator;

@@ -330,7 +330,8 @@ typedef struct SpmGatherParams {
    * camera segments' volume estimate, weighted spp / volume_samples; the
    * others leave it out (spm_gather). */
   spm_uint volume_samples;
-  spm_uint pad[3];
+  spm_float volume_radius; /* the volume records' kernel radius in the pass (r unless volume_radius is set) */
+  spm_uint pad[2];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -118,8 +118,8 @@ void PassRenderer::Stages::stage(const char* name, double start) const {
   if (profiler) profiler->stage(name, start, profiler->now(), track);
 }
 
-void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float beam_radius, bool direct_terms,
-                          PassOutput& out, const Stages& stages) {
+void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float volume_radius, float beam_radius,
+                          bool direct_terms, PassOutput& out, const Stages& stages) {
   // The estimates are sums over records, so maps whose grids do not fit the
   // device memory left are gathered in parts, each part's grids built,
   // uploaded and gathered along the same camera paths (same random
@@ -138,8 +138,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
   for (size_t k = 0; k < parts;) {
     double t = stages.now();
     QueryBounds reach;
-    reach.lo = scene_lo_ - glm::vec3(radius);
-    reach.hi = scene_hi_ + glm::vec3(radius);
+    reach.lo = scene_lo_ - glm::vec3(std::max(radius, volume_radius));
+    reach.hi = scene_hi_ + glm::vec3(std::max(radius, volume_radius));
     // The gather reads the volume records or the beams, never both.
     MapParts part;
     if (beams) {
@@ -151,7 +151,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     const size_t first = maps.surface.size() * k / parts;
     part.surface = maps.surface.data() + first;
     part.surface_count = maps.surface.size() * (k + 1) / parts - first;
-    MapGridData data = map_grid_data(std::move(part), radius, beam_radius, skip_direct, final_gather_, reach);
+    MapGridData data =
+        map_grid_data(std::move(part), radius, volume_radius, beam_radius, skip_direct, final_gather_, reach);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
@@ -182,6 +183,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.spp = cl_uint(s.spp);
     params.max_depth = max_depth;
     params.radius = radius;
+    params.volume_radius = volume_radius;
     params.beam_radius = beam_radius;
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;
@@ -219,6 +221,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   const float radius = pass_radius(in.radius, in.alpha, pass);
   const float width = in.stream_width * radius / in.radius;
   const float beam_radius = pass_beam_radius(in.radius, in.alpha, pass);
+  const float volume_radius = in.volume_radius > 0.0f ? in.volume_radius * radius / in.radius : radius;
   // The pass's streams batch by batch; their maps wait on the host until
   // they pass the host budget or the streams run out, and are then gathered
   // and dropped (the estimates are sums over records, so the parts add up
@@ -241,7 +244,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
     }
     if (pass == 0 && first_part && !s.dump_maps.empty()) write_maps_ply(s.dump_maps, maps);
     stages.lap();
-    gather(maps, pass, radius, beam_radius, first_part, out, stages);
+    gather(maps, pass, radius, volume_radius, beam_radius, first_part, out, stages);
     out.counters.live.insert(out.counters.live.end(), maps.stats.live.begin(), maps.stats.live.end());
     for (int k = 0; k < SPM_COUNTERS; ++k) out.counters.stream_counters[k] += maps.stats.counters[k];
     out.counters.volume_records += maps.volume.size();

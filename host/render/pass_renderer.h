@@ -57,8 +57,8 @@ class PassRenderer {
   // Gathers `maps` into out.rgb (added), in parts that fit the device;
   // `direct_terms`: this gather adds emission and next-event estimation;
   // `beam_radius`: the stream beams' kernel radius (METHOD.md 11).
-  void gather(const PhotonMaps& maps, int pass, float radius, float beam_radius, bool direct_terms, PassOutput& out,
-              const Stages& stages);
+  void gather(const PhotonMaps& maps, int pass, float radius, float volume_radius, float beam_radius, bool direct_terms,
+              PassOutput& out, const Stages& stages);
 
   Device& device_;
   const Scene& scene_;

@@ -30,11 +30,14 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   check(in.associated >= 0 && in.associated <= 65535, "associated must be in 1 .. 65535 (--associated)");
   check(in.stream_width >= 0.0f && std::isfinite(in.stream_width), "the stream width must be positive (--stream-width)");
   check(in.radius >= 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
+  check(in.volume_radius >= 0.0f && std::isfinite(in.volume_radius),
+        "the volume radius must be positive (--volume-radius)");
   check(in.max_bounces >= -1 && in.max_bounces != 0, "max_bounces must be at least 1, or -1 for unlimited (--bounces)");
   check(in.max_depth >= -1, "max_depth must be at least -1 (-1: unlimited)");
   check(in.rr_depth >= 1, "rr_depth must be at least 1");
   check(in.volume_every >= 1, "volume_every must be at least 1 (--volume-every)");
-  check(in.emission_chains >= 0 && in.emission_chains <= 1024, "emission_chains must be in 0 .. 1024 (--emission-chains)");
+  check(in.emission_chains >= 0 && in.emission_chains <= 1024,
+        "emission_chains must be in 0 .. 1024 (--emission-chains)");
   check(in.march_step >= 0.0f && std::isfinite(in.march_step), "march_step must not be negative (--march-step)");
   check(in.alpha > 0.0f && in.alpha < 1.0f, "alpha must be in (0, 1) (--alpha)");
   check(in.time >= 0.0f && std::isfinite(in.time), "the time budget must not be negative (--time)");

@@ -785,6 +785,7 @@ class Loader {
     checked_float("radius", s.radius, true);
     checked_float("width", s.stream_width, true);
     checked_float("march_step", s.march_step, false);
+    checked_float("volume_radius", s.volume_radius, true);
     checked_float("time", s.time, false);
     const auto option = [&](const IntegratorOption& o, std::string& field) {
       if (std::optional<std::string> v = p.get_string(o.property)) {

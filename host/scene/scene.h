@@ -136,6 +136,10 @@ struct IntegratorSettings {
   // it is the gather's costliest term (README "Camera volume estimates
   // for one sample in four").
   int volume_every = 4;
+  // The volume records' kernel radius in the first pass, shrinking with the
+  // radius; 0: the radius. A thin fog's multiple scattering is smooth where
+  // a caustic on a surface is sharp (README "A wider kernel in thin fog").
+  float volume_radius = 0.0f;
   std::string where;
 };
 

@@ -128,8 +128,8 @@ size_t MapGridData::bytes() const {
          vector_bytes(caustic_pos) + vector_bytes(caustic_flux);
 }
 
-MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather,
-                          const QueryBounds& reach) {
+MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
+                          bool final_gather, const QueryBounds& reach) {
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
@@ -152,13 +152,13 @@ MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool s
     }
   }
   std::vector<SpmVolumeRecord> outer;
-  const QueryBounds core = volume_core(reach, volume.size(), radius);
+  const QueryBounds core = volume_core(reach, volume.size(), volume_radius);
   const auto far = std::stable_partition(volume.begin(), volume.end(),
                                          [&](const SpmVolumeRecord& r) { return core.contains(r.position); });
   outer.assign(far, volume.end());
   volume.erase(far, volume.end());
-  d.volume = volume_grid(volume, radius);
-  d.outer = volume_grid(outer, radius);
+  d.volume = volume_grid(volume, volume_radius);
+  d.outer = volume_grid(outer, volume_radius);
   d.surface = surface_grid(maps.surface, surface, radius);
   d.caustic = surface_grid(maps.surface, caustic, radius);
   d.beam = beam_grid(beams, beam_radius);

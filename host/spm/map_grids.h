@@ -99,9 +99,10 @@ struct MapParts {
 // and one grid over all of them, capped in cells, would have cells far
 // wider than 2r where the queries are (README "Why more streams cost the
 // fog box so much"). Each record is in one of the two grids, and the
-// gather sums both.
-MapGridData map_grid_data(MapParts maps, float radius, float beam_radius, bool skip_direct, bool final_gather = false,
-                          const QueryBounds& reach = {});
+// gather sums both. The volume grids are over spheres of `volume_radius`,
+// the surface grids over disks of `radius`.
+MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
+                          bool final_gather = false, const QueryBounds& reach = {});
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound
 // under their names after the gather's own arguments.
