@@ -427,12 +427,13 @@ inline float3 seen_emission(const SpmScene* s, const __global SpmShape* shape, c
 }
 
 /* A camera path's step past surf: through a null boundary (switching the
- * medium), or off a mirror or glass by the choice u (METHOD.md 3),
- * counting the specular vertex. False where the path ends: at a diffuse
- * surface, past the specular cap or max_depth, or where the bounce has no
- * weight. */
+ * medium), or off a mirror or glass (METHOD.md 3) by the uniform of
+ * (rng, purpose, lane), counting the specular vertex. False where the path
+ * ends: at a diffuse surface, past the specular cap or max_depth, or where
+ * the bounce has no weight. */
 inline bool camera_step(const __global SpmShape* shape, const __global SpmMaterial* m, const SpmSurface* surf,
-                        float u, uint max_depth, uint* specular, float3* beta, int* medium, float3* o, float3* d) {
+                        SpmRng rng, uint purpose, uint lane, uint max_depth, uint* specular, float3* beta, int* medium,
+                        float3* o, float3* d) {
   if (m->type == SPM_MAT_NULL) {
     *medium = target_medium(shape, surf->ng, *d, *medium);
     *o = leave_surface(surf, *d);
@@ -441,7 +442,7 @@ inline bool camera_step(const __global SpmShape* shape, const __global SpmMateri
   if (m->type == SPM_MAT_DIFFUSE) return false;
   if (++*specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(*specular + 1u, max_depth)) return false;
   float3 next;
-  const float f = specular_bounce(m, surf, *d, u, true, &next);
+  const float f = specular_bounce(m, surf, *d, rng4(rng, purpose, lane).x, true, &next);
   if (f == 0.0f) return false;
   *beta *= f;
   *medium = target_medium(shape, surf->ng, next, *medium);
@@ -511,8 +512,8 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
       sum += beta * seen_emission(s, shape, &surf, d, specular, max_depth);
       tmin = 0.0f;
       tmax = SPM_INF;
-      if (!camera_step(shape, &s->materials[shape->material], &surf, rng4(r, SPM_RNG_EMISSION, j).x, max_depth,
-                       &specular, &beta, &medium, &o, &d))
+      if (!camera_step(shape, &s->materials[shape->material], &surf, r, SPM_RNG_EMISSION, j, max_depth, &specular,
+                       &beta, &medium, &o, &d))
         break;
     }
   }
@@ -527,8 +528,7 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
  * vertex that ends the chain specular + 2. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
                        float tmin, float tmax, uint max_depth, bool emission, float volume_weight, SpmRng rng,
-                       SpmSurfaceReuse* reuse,
-                       SpmVolumeReuse* volume_reuse, uint* tests) {
+                       SpmSurfaceReuse* reuse, SpmVolumeReuse* volume_reuse, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
   int medium = cam->medium;
@@ -550,9 +550,9 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       crossed_medium = true;
       if ((maps->terms & SPM_TERM_VOLUME) && volume_weight > 0.0f) {
         L += beta * volume_weight *
-             (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth,
-                                                      depth_limit, tests)
-                             : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
+             (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit,
+                                             tests)
+                    : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
       }
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && (maps->terms & SPM_TERM_INSCATTER) && maps->direct == SPM_DIRECT_NEE &&
@@ -600,8 +600,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       }
       break;
     }
-    if (!camera_step(shape, m, &surf, rng4(rng, SPM_RNG_BSDF, 0).x, max_depth, &specular, &beta, &medium, &o, &d))
-      break;
+    if (!camera_step(shape, m, &surf, rng, SPM_RNG_BSDF, 0u, max_depth, &specular, &beta, &medium, &o, &d)) break;
   }
   return L;
 }
