@@ -315,8 +315,8 @@ int main(int argc, char** argv) {
                      "Russian roulette on streams and paths from this vertex on (integrator 'rr_depth'); default 5")
       ->check(CLI::Range(1, 1 << 30));
   render->add_option("--emission-chains", r.emission_chains,
-                     "Camera rays per sample that bring the emission seen in pixels that see a mirror, glass or a "
-                     "light: a light seen through glass is an image far smaller than a pixel (integrator "
+                     "Camera rays per sample that bring the emission seen in pixels that see a mirror or glass: a "
+                     "light seen through glass is an image far smaller than a pixel (integrator "
                      "'emission_chains'); 0: each sample's own path; default 16")
       ->check(CLI::Range(0, 1024));
   render->add_option("--volume-every", r.volume_every,

@@ -323,7 +323,7 @@ typedef struct SpmGatherParams {
   spm_uint strata_seed;    /* which scrambled sequence those indices read (stratify2) */
   spm_uint terms;          /* SPM_TERM_* bits of the terms to add; SPM_TERMS_ALL */
   /* Camera rays per sample that bring the emission seen through pixels
-   * that see a mirror, glass or a light (spm_gather.cl, emission_chains);
+   * that see a mirror or glass (spm_gather.cl, emission_chains);
    * 0: each sample's own path brings it everywhere. */
   spm_uint emission_chains;
   /* The first volume_samples of a pixel's samples in the pass add the

@@ -91,7 +91,10 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       density_kernel_(kDensityKernelOption.code(scene.integrator.density_kernel)),
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
       direct_(kDirectOption.code(scene.integrator.direct)),
-      final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE) {
+      final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE),
+      specular_(std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) {
+        return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
+      })) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
   // own optical depth per channel (estimate.h); grey ones need none.
   for (const Medium& m : scene.media) {
@@ -194,7 +197,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.first_sample = first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass) * s.spp);
     params.strata_seed = strata_seed_;
     params.terms = s.terms;
-    params.emission_chains = cl_uint(in.emission_chains);
+    params.emission_chains = specular_ ? cl_uint(in.emission_chains) : 0u;
     params.volume_samples = cl_uint((s.spp + in.volume_every - 1) / in.volume_every);
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();

@@ -73,6 +73,8 @@ class PassRenderer {
   uint32_t strata_seed_ = 0;
   cl_uint density_kernel_, estimator_, direct_;
   bool final_gather_;
+  // Whether the scene has mirrors or glass, where emission chains start (spm_chain_pixels).
+  bool specular_;
 };
 
 }  // namespace spm

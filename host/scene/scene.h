@@ -127,8 +127,8 @@ struct IntegratorSettings {
   // radius's bias, is most of the error at the pass counts users run.
   float alpha = 0.8f;
   // Camera rays per sample that bring the emission seen in pixels whose
-  // corners see a mirror, glass or a light (spm_gather.cl, emission_chains);
-  // 0: each sample's path brings it, everywhere.
+  // corners see a mirror or glass (spm_gather.cl, emission_chains); 0: each
+  // sample's path brings it, everywhere.
   int emission_chains = 16;
   // One camera sample in volume_every per pixel and pass adds the camera
   // segments' volume estimate, weighted to stand for the others: the
