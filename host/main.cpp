@@ -64,7 +64,7 @@ struct RenderArgs {
   std::optional<int> streams, associated, beam_streams, bounces, max_depth, rr_depth, emission_chains, volume_every;
   std::optional<float> stream_width, march_step, radius, volume_radius, alpha, time;
   std::optional<std::string> estimator, density_kernel, direct;
-  bool final_gather = false, no_final_gather = false;
+  bool final_gather = false, no_final_gather = false, no_wall_images = false;
   std::vector<std::string> terms;
 };
 
@@ -100,6 +100,7 @@ void apply_overrides(const RenderArgs& a, spm::IntegratorSettings& in) {
   if (a.final_gather && a.no_final_gather) throw spm::InputError("--final-gather", "and --no-final-gather both given");
   if (a.final_gather) in.final_gather = true;
   if (a.no_final_gather) in.final_gather = false;
+  if (a.no_wall_images) in.wall_images = false;
 }
 
 std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
@@ -351,6 +352,9 @@ int main(int argc, char** argv) {
                    "nee");
   render->add_flag("--no-final-gather", r.no_final_gather,
                    "Read the photon maps at the camera's first diffuse vertex (METHOD.md 5 as written)");
+  render->add_flag("--no-wall-images", r.no_wall_images,
+                   "Do not mirror the volume records near walls across them (integrator 'wall_images', default "
+                   "true): the beam radiance estimate then darkens where its kernel reaches through a wall");
   render->add_option("--direct", r.direct,
                      "Direct light on surfaces: 'nee' (default; shadow rays with transmittance) or 'photons' "
                      "(photon map only, the paper's look)")

@@ -13,16 +13,17 @@
 __kernel void spm_beam_test(const __global SpmGridInfo* info, const __global uint* cell_start,
                             const __global float4* item_pos, const __global uint* items,
                             const __global SpmVolumeRecord* records, const __global SpmMedium* media,
-                            const __global float4* origins, const __global float4* directions, __global float4* out,
-                            uint count, int medium, float radius, uint density_kernel, uint estimator,
-                            uint min_rec_depth, uint max_rec_depth) {
+                            const __global SpmPatch* patches, const __global float4* origins,
+                            const __global float4* directions, __global float4* out, uint count, int medium,
+                            float radius, uint density_kernel, uint estimator, uint min_rec_depth,
+                            uint max_rec_depth) {
   const uint i = get_global_id(0);
   if (i >= count) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   uint tests = 0;
   SpmMediumTable homogeneous;
   homogeneous.n = 0;
-  const float3 l = beam_estimate(&grid, items, records, media, medium, origins[i].xyz, directions[i].xyz,
+  const float3 l = beam_estimate(&grid, items, records, media, patches, medium, origins[i].xyz, directions[i].xyz,
                                  origins[i].w, directions[i].w, radius, density_kernel, estimator, min_rec_depth,
                                  max_rec_depth, &homogeneous, &tests);
   out[i] = (float4)(l, (float)tests);
@@ -79,8 +80,8 @@ __kernel void spm_shared_surface_test(const __global SpmGridInfo* info, const __
 __kernel void spm_shared_beam_test(const __global SpmGridInfo* info, const __global uint* cell_start,
                                    const __global float4* item_pos, const __global uint* items,
                                    const __global SpmVolumeRecord* records, const __global SpmMedium* media,
-                                   const __global float4* origins, const __global float4* directions,
-                                   const __global uint* depth_limits, __global float4* out, uint count, int medium,
+                                   const __global SpmPatch* patches, const __global float4* origins,
+                                   const __global float4* directions, const __global uint* depth_limits, __global float4* out, uint count, int medium,
                                    float radius, uint density_kernel) {
   if (get_global_id(0) != 0) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
@@ -92,7 +93,7 @@ __kernel void spm_shared_beam_test(const __global SpmGridInfo* info, const __glo
     const float t0 = origins[i].w, t1 = directions[i].w;
     uint tests = 0;
     if (!volume_reuse_hit(&reuse, o, d, t0, t1, medium, 0u, depth_limits[i], radius)) {
-      reuse.L = beam_estimate(&grid, items, records, media, medium, o, d, t0, t1, radius, density_kernel,
+      reuse.L = beam_estimate(&grid, items, records, media, patches, medium, o, d, t0, t1, radius, density_kernel,
                               SPM_ESTIMATOR_BRE, 0u, depth_limits[i], &homogeneous, &tests);
     }
     out[i] = (float4)(reuse.L, (float)tests);

@@ -220,10 +220,12 @@ inline float3 medium_nee(const SpmScene* s, int medium, float3 o, float3 d, floa
  * in one (host/spm/map_grids.h), so the estimate is the sum of both. */
 inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
                                float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab, uint* tests) {
-  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, medium, o, d, t0, t1,
-                       maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests) +
-         beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, medium, o, d, t0, t1,
-                       maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
+  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, s->patches, medium, o, d,
+                       t0, t1, maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab,
+                       tests) +
+         beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, s->patches, medium, o, d, t0,
+                       t1, maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab,
+                       tests);
 }
 
 /* The volume estimate (records or stream beams) along [t0, t1] in a

@@ -271,6 +271,11 @@ typedef struct SpmBeam {
 #define SPM_RECORD_CAUSTIC 2u   /* the stream's last event before this one was specular: light a final
                                  * gather ray cannot bring, read at the camera's own vertex (spm_gather.cl) */
 
+/* A volume record's `stream` with this bit set: the record is the mirror
+ * image of another across the wall of patch (stream & ~SPM_RECORD_IMAGE),
+ * made by the host for the gather (host/spm/wall_images.h). */
+#define SPM_RECORD_IMAGE 0x80000000u
+
 /* Surface photon map record: one per alive associated photon of a stream at a
  * diffuse event. */
 typedef struct SpmSurfaceRecord {

@@ -10,6 +10,7 @@
 #include "scene/loader.h"
 #include "spm/map_grids.h"
 #include "spm/record_grid.h"
+#include "spm/wall_images.h"
 #include "stats.h"
 #include "test_support.h"
 
@@ -77,6 +78,7 @@ struct BeamTestSettings {
   float radius = 0.0f;
   int kernel = 0, estimator = 0;
   uint32_t min_depth = 0, max_depth = SPM_NONE;
+  std::vector<SpmPatch> walls = std::vector<SpmPatch>(1);  // the patches images name (SPM_RECORD_IMAGE)
 };
 
 // spm_beam_test over n rays (origin and t0, direction and t1) through the
@@ -86,9 +88,10 @@ std::vector<cl_float4> beam_test(const VolumeBuffers& u, const cl::Buffer& media
   auto& dev = spm::test::device();
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
+  const cl::Buffer patches = dev.upload("patches", t.walls);
   spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
                 spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
-                spm::arg("origins", origins), spm::arg("directions", directions), spm::arg("out", out),
+                spm::arg("patches", patches), spm::arg("origins", origins), spm::arg("directions", directions), spm::arg("out", out),
                 spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)), spm::arg("radius", t.radius),
                 spm::arg("density_kernel", cl_uint(t.kernel)), spm::arg("estimator", cl_uint(t.estimator)),
                 spm::arg("min_rec_depth", cl_uint(t.min_depth)), spm::arg("max_rec_depth", cl_uint(t.max_depth)));
@@ -268,9 +271,10 @@ TEST(BeamEstimate, ABlocksSegmentsShareOnlyANearbyEstimate) {
                    lb = dev.upload("depth_limits", limits);
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_beam_test");
+  const cl::Buffer patches = dev.upload("patches", std::vector<SpmPatch>(1));
   spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
                 spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
-                spm::arg("origins", ob), spm::arg("directions", db), spm::arg("depth_limits", lb),
+                spm::arg("patches", patches), spm::arg("origins", ob), spm::arg("directions", db), spm::arg("depth_limits", lb),
                 spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)),
                 spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
   dev.launch(k, 1);
@@ -373,6 +377,170 @@ TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
   }
   // Some rays must meet outer records, or the second grid went untested.
   EXPECT_GT(outer_rays, n / 4);
+}
+
+// The wall of the tests below: a 20 x 20 diffuse rectangle in the plane
+// z = 0, its normal +z, as flatten_scene would list it; and a null boundary
+// beside it (x in 30 .. 50), which light crosses, so it mirrors nothing.
+spm::SceneTables wall_tables() {
+  spm::SceneTables t;
+  SpmPatch wall{};
+  wall.u[0] = 1.0f;
+  wall.v[1] = 1.0f;
+  wall.half_u = wall.half_v = 10.0f;
+  SpmPatch boundary = wall;
+  boundary.center[0] = 40.0f;
+  t.patches = {wall, boundary};
+  t.patch_shapes = {0, 1};
+  t.shapes.resize(2);
+  t.shapes[1].material = 1;
+  t.materials.resize(2);
+  t.materials[0].type = SPM_MAT_DIFFUSE;
+  t.materials[1].type = SPM_MAT_NULL;
+  return t;
+}
+
+SpmVolumeRecord record_at(glm::vec3 p, glm::vec3 d, uint32_t stream) {
+  SpmVolumeRecord r{};
+  for (int c = 0; c < 3; ++c) {
+    r.position[c] = p[c];
+    r.direction[c] = d[c];
+    r.flux[c] = 1.0f + float(c);
+  }
+  r.stream = stream;
+  r.depth = 3;
+  r.medium = 0;
+  return r;
+}
+
+// Which records get an image: those within r of the wall's plane, on either
+// side, whose foot lies on the rectangle; not those farther, beside it, or
+// at the null boundary. The image is the mirror position and direction, with
+// the record's flux, depth and medium, and names the wall's patch.
+TEST(WallImages, MirrorRecordsNearAWallOnly) {
+  const spm::WallImages walls(wall_tables());
+  EXPECT_EQ(walls.walls(), 1u);
+  const glm::vec3 d = glm::normalize(glm::vec3(1.0f, 2.0f, -3.0f));
+  std::vector<SpmVolumeRecord> records = {
+      record_at({1.0f, 2.0f, 0.4f}, d, 0),     // in front, within r
+      record_at({-9.5f, 9.5f, -0.7f}, d, 1),   // behind, within r, near a corner
+      record_at({1.0f, 2.0f, 1.2f}, d, 2),     // farther than r
+      record_at({10.5f, 0.0f, 0.3f}, d, 3),    // beside the rectangle
+      record_at({40.0f, 0.0f, 0.3f}, d, 4)};   // at the null boundary
+  walls.add(records, 1.0f);
+  ASSERT_EQ(records.size(), 7u);
+  const float expect_z[2] = {-0.4f, 0.7f};
+  for (int k = 0; k < 2; ++k) {
+    const SpmVolumeRecord& image = records[5 + k];
+    const SpmVolumeRecord& source = records[k];
+    EXPECT_EQ(image.stream, SPM_RECORD_IMAGE | 0u);
+    EXPECT_EQ(image.position[0], source.position[0]);
+    EXPECT_EQ(image.position[1], source.position[1]);
+    EXPECT_NEAR(image.position[2], expect_z[k], 1e-6f);
+    EXPECT_NEAR(image.direction[0], d.x, 1e-6f);
+    EXPECT_NEAR(image.direction[1], d.y, 1e-6f);
+    EXPECT_NEAR(image.direction[2], -d.z, 1e-6f);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(image.flux[c], source.flux[c]);
+    EXPECT_EQ(image.depth, source.depth);
+    EXPECT_EQ(image.medium, source.medium);
+  }
+}
+
+// Records spread evenly over the slab 0 < z < 4 above the wall, each of flux
+// phi, in a medium that neither absorbs nor attenuates (sigma_t 0, albedo
+// 1, isotropic): the beam radiance estimate along a segment of length L is
+// rho phi L / (4 pi), its standard error the Poisson error of the k
+// records in the segment's tube. Along rays beside the wall (at 0.1 r to
+// 0.9 r) and rays that end on it at 45 degrees, the plain estimate is the
+// part of each disk above the wall, averaged along the ray, while with the
+// wall's images it is rho phi L / (4 pi); both within 4 standard errors.
+// A ray beyond the wall reads no image: it gets what it got without them.
+// Rays sit 2 r apart, so their estimates are independent.
+TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
+  const float radius = 1.0f, phi = 0.01f, depth = 4.0f;
+  const double rho = 50.0;
+  const int count = int(rho * 20.0 * 20.0 * depth);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<SpmVolumeRecord> records(count);
+  for (auto& r : records) {
+    r = record_at({-10.0f + 20.0f * u(rng), -10.0f + 20.0f * u(rng), depth * u(rng)}, {0.0f, 0.0f, 1.0f}, 0);
+    for (float& f : r.flux) f = phi;
+  }
+  std::vector<SpmVolumeRecord> mirrored = records;
+  const spm::SceneTables tables = wall_tables();
+  spm::WallImages(tables).add(mirrored, radius);
+  ASSERT_GT(mirrored.size(), records.size() + records.size() / 5);
+
+  // Groups of rays: x from -7 to 7 at heights 0.1, 0.5 and 0.9 (9 each, at
+  // y = -8, -6, ..., 8); 27 from z = 1.5 down at 45 degrees to the wall;
+  // 9 at z = -0.5, beyond the wall.
+  struct Ray {
+    glm::vec3 o, d;
+    float t1;
+  };
+  std::vector<Ray> rays;
+  std::vector<int> groups = {0};
+  const float heights[3] = {0.1f, 0.5f, 0.9f};
+  for (float h : heights) {
+    for (int k = 0; k < 9; ++k) rays.push_back({{-7.0f, -8.0f + 2.0f * k, h}, {1.0f, 0.0f, 0.0f}, 14.0f});
+    groups.push_back(int(rays.size()));
+  }
+  const float s = std::sqrt(0.5f);
+  for (float x : {-8.0f, -2.0f, 4.0f})
+    for (int k = 0; k < 9; ++k) rays.push_back({{x, -8.0f + 2.0f * k, 1.5f}, {s, 0.0f, -s}, 1.5f / s});
+  groups.push_back(int(rays.size()));
+  const int beyond = int(rays.size());
+  for (int k = 0; k < 9; ++k) rays.push_back({{-7.0f, -8.0f + 2.0f * k, -0.5f}, {1.0f, 0.0f, 0.0f}, 14.0f});
+  const int n = int(rays.size());
+  std::vector<cl_float4> origins(n), dirs(n);
+  for (int i = 0; i < n; ++i) {
+    origins[i] = {{rays[i].o.x, rays[i].o.y, rays[i].o.z, 0.0f}};
+    dirs[i] = {{rays[i].d.x, rays[i].d.y, rays[i].d.z, rays[i].t1}};
+  }
+  auto& dev = spm::test::device();
+  SpmMedium clear{};
+  clear.albedo[0] = clear.albedo[1] = clear.albedo[2] = 1.0f;
+  clear.phase = SPM_PHASE_ISOTROPIC;
+  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{clear});
+  const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
+  BeamTestSettings t;
+  t.radius = radius;
+  const auto plain = beam_test(upload(dev, records, radius), media, ob, db, n, t);
+  t.walls = tables.patches;
+  const auto with = beam_test(upload(dev, mirrored, radius), media, ob, db, n, t);
+
+  // The part of a disk of radius r around a point at height z above the
+  // wall, its plane at angle a to the wall, that lies above z = 0 (a
+  // circular segment; the whole disk when the wall does not cut it).
+  const auto above = [&](double z, double sin_a) {
+    const double h = sin_a > 0.0 ? std::min(1.0, z / (sin_a * radius)) : 1.0;
+    return (kPi - std::acos(h) + h * std::sqrt(1.0 - h * h)) / kPi;
+  };
+  for (size_t g = 0; g + 1 < groups.size(); ++g) {
+    double with_mean = 0.0, plain_mean = 0.0, part = 0.0, tube = 0.0;
+    for (int i = groups[g]; i < groups[g + 1]; ++i) {
+      const double full = rho * phi * rays[i].t1 / (4.0 * kPi);
+      with_mean += with[i].s[0] / full;
+      plain_mean += plain[i].s[0] / full;
+      // Along the ray, the disk's part above the wall, by the midpoint rule.
+      const double sin_a = std::sqrt(1.0 - double(rays[i].d.z) * rays[i].d.z);
+      const int steps = 1000;
+      double sum = 0.0;
+      for (int j = 0; j < steps; ++j) sum += above(rays[i].o.z + (j + 0.5) / steps * rays[i].t1 * rays[i].d.z, sin_a);
+      part += sum / steps;
+      tube += rho * kPi * radius * radius * rays[i].t1;
+    }
+    const double rays_in = groups[g + 1] - groups[g];
+    const double error = 1.0 / std::sqrt(tube);  // of the group's mean, relative
+    EXPECT_NEAR(with_mean / rays_in, 1.0, 4.0 * error) << "group " << g;
+    EXPECT_NEAR(plain_mean / rays_in, part / rays_in, 4.0 * error) << "group " << g;
+    if (g == 0 || g == 3) EXPECT_LT(part / rays_in, 1.0 - 6.0 * error) << "group " << g << " tells them apart";
+  }
+  for (int i = beyond; i < n; ++i) {
+    EXPECT_GT(plain[i].s[0], 0.0f);
+    EXPECT_NEAR(with[i].s[0], plain[i].s[0], 1e-5f * plain[i].s[0]) << "ray " << i << " beyond the wall";
+  }
 }
 
 TEST(SurfaceEstimate, EqualsTheBruteForceSum) {

@@ -94,7 +94,9 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE),
       specular_(std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) {
         return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
-      })) {
+      })),
+      walls_(tables),
+      wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
   // own optical depth per channel (estimate.h); grey ones need none.
   for (const Medium& m : scene.media) {
@@ -155,7 +157,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     part.surface = maps.surface.data() + first;
     part.surface_count = maps.surface.size() * (k + 1) / parts - first;
     MapGridData data =
-        map_grid_data(std::move(part), radius, volume_radius, beam_radius, skip_direct, final_gather_, reach);
+        map_grid_data(std::move(part), radius, volume_radius, beam_radius, skip_direct, final_gather_, reach,
+                      wall_images_ ? &walls_ : nullptr);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part

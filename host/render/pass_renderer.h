@@ -13,6 +13,7 @@
 #include "scene/gpu_scene.h"
 #include "spm/gather.h"
 #include "spm/propagate.h"
+#include "spm/wall_images.h"
 #include "util/timer.h"
 
 namespace spm {
@@ -75,6 +76,9 @@ class PassRenderer {
   bool final_gather_;
   // Whether the scene has mirrors or glass, where emission chains start (spm_chain_pixels).
   bool specular_;
+  // The walls the volume records are mirrored across (the bre estimate only).
+  WallImages walls_;
+  bool wall_images_;
 };
 
 }  // namespace spm

@@ -294,6 +294,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       if (const auto patch = quad_patch(s.positions, s.triangles[k], s.triangles[k + 1])) {
         patch_of[k] = patch_of[k + 1] = static_cast<spm_uint>(t.patches.size());
         t.patches.push_back(*patch);
+        t.patch_shapes.push_back(static_cast<spm_uint>(i));
         ++k;
       }
     }

@@ -16,6 +16,7 @@ struct SceneTables {
   std::vector<SpmPrim> prims;  // in BVH leaf order
   std::vector<SpmPrimNormals> normals;
   std::vector<SpmPatch> patches;  // the rectangles flat triangles lie on (SPM_PRIM_PATCH)
+  std::vector<spm_uint> patch_shapes;  // per patch: the shape it belongs to
   std::vector<SpmShape> shapes;
   std::vector<SpmMaterial> materials;
   std::vector<SpmMedium> media;

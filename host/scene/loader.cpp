@@ -797,6 +797,7 @@ class Loader {
     option(kDensityKernelOption, s.density_kernel);
     option(kDirectOption, s.direct);
     if (std::optional<bool> fg = p.get_bool("final_gather")) s.final_gather = *fg;
+    if (std::optional<bool> wi = p.get_bool("wall_images")) s.wall_images = *wi;
     if (std::optional<float> a = p.get_float("alpha")) {
       if (!(*a > 0.0f && *a < 1.0f)) p.fail("alpha", "alpha must be in (0, 1)");
       s.alpha = *a;

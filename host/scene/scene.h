@@ -120,6 +120,7 @@ struct IntegratorSettings {
   std::string density_kernel = "uniform";  // uniform | epanechnikov
   std::string direct = "nee";       // nee | photons
   bool final_gather = true;         // one gather ray at the camera's diffuse vertex (with direct nee)
+  bool wall_images = true;          // volume records mirrored across walls (host/spm/wall_images.h)
   // Radius reduction of progressive passes (METHOD.md 6 says 2/3, Knaus &
   // Zwicker's rate-optimal value): 0.8 by measurement, 9-22% less error at
   // 10 and 30 s on cornell_fog and caustic_area and the same on the fog

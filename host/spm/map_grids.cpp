@@ -129,7 +129,7 @@ size_t MapGridData::bytes() const {
 }
 
 MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
-                          bool final_gather, const QueryBounds& reach) {
+                          bool final_gather, const QueryBounds& reach, const WallImages* walls) {
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
@@ -144,6 +144,7 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
     beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),
                 beams.end());
   }
+  if (walls) walls->add(volume, volume_radius);
   const std::vector<uint32_t> surface = used_surface_records(maps.surface, maps.surface_count, skip_direct, reach);
   std::vector<uint32_t> caustic;
   if (final_gather) {

@@ -9,6 +9,7 @@
 #include "device/device.h"
 #include "spm/record_grid.h"
 #include "spm/propagate.h"
+#include "spm/wall_images.h"
 #include "spm_maps.h"
 
 namespace spm {
@@ -100,9 +101,11 @@ struct MapParts {
 // wider than 2r where the queries are (README "Why more streams cost the
 // fog box so much"). Each record is in one of the two grids, and the
 // gather sums both. The volume grids are over spheres of `volume_radius`,
-// the surface grids over disks of `radius`.
+// the surface grids over disks of `radius`. With `walls`, the volume
+// records near them get their mirror images (WallImages::add).
 MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
-                          bool final_gather = false, const QueryBounds& reach = {});
+                          bool final_gather = false, const QueryBounds& reach = {},
+                          const WallImages* walls = nullptr);
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound
 // under their names after the gather's own arguments.

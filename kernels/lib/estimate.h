@@ -44,11 +44,14 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  * out: their paths would be longer than max_depth (METHOD.md 10); records
  * shallower than min_rec_depth too (2: single scattering comes from
  * next-event estimation).
+ * A record flagged SPM_RECORD_IMAGE is the mirror image of one across a
+ * wall (host/spm/wall_images.h) and counts only where the ray's point is on
+ * the other side of the wall's plane `patches` holds, its record's side.
  * *tests counts the records examined (the profile's sphere tests). */
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
-                            const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1, float r,
-                            uint density_kernel, uint estimator, uint min_rec_depth, uint max_rec_depth,
-                            const SpmMediumTable* tab, uint* tests) {
+                            const __global SpmMedium* media, const __global SpmPatch* patches, int m, float3 o,
+                            float3 d, float t0, float t1, float r, uint density_kernel, uint estimator,
+                            uint min_rec_depth, uint max_rec_depth, const SpmMediumTable* tab, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
   if (grid->info->records == 0 || !grid_walk_begin(grid->info, o, d, t0, t1, &walk)) return sum;
@@ -74,8 +77,15 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
       const float3 off = x - (o + t * d);
       const float d2 = dot(off, off);
       const __global SpmVolumeRecord* rec = &records[items[k]];
-      const bool in = (t >= ta) & (t < tb) & (d2 < r2) & (item.w <= (float)max_rec_depth) &
-                      (item.w >= (float)min_rec_depth) & (rec->medium == m);
+      bool in = (t >= ta) & (t < tb) & (d2 < r2) & (item.w <= (float)max_rec_depth) &
+                (item.w >= (float)min_rec_depth) & (rec->medium == m);
+      /* Images are a few records near walls: a branch, not a select. */
+      const uint stream = rec->stream;
+      if (in && (stream & SPM_RECORD_IMAGE)) {
+        const __global SpmPatch* wall = &patches[stream & ~SPM_RECORD_IMAGE];
+        const float3 c = load3(wall->center), n = cross(load3(wall->u), load3(wall->v));
+        in = dot(o + t * d - c, n) * dot(x - c, n) < 0.0f;
+      }
       /* In a homogeneous medium every record's weight is computed and a
        * select keeps those in range: whether a record is in range depends
        * on the data, and branching on it cost more in mispredicted branches
