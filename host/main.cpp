@@ -334,7 +334,7 @@ int main(int argc, char** argv) {
                      "Kernel radius of the volume records' estimate, first pass, shrinking as the radius does "
                      "(integrator 'volume_radius'); default: the radius");
   render->add_option("--alpha", r.alpha,
-                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 0.8");
+                     "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 0.9");
   render->add_option("--time", r.time,
                      "Render passes for this many seconds instead of a pass count (integrator 'time'); the passes "
                      "end within it, scene load, kernel builds and the pilot reported apart");

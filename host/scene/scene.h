@@ -122,11 +122,14 @@ struct IntegratorSettings {
   bool final_gather = true;         // one gather ray at the camera's diffuse vertex (with direct nee)
   bool wall_images = true;          // volume records mirrored across walls (host/spm/wall_images.h)
   // Radius reduction of progressive passes (METHOD.md 6 says 2/3, Knaus &
-  // Zwicker's rate-optimal value): 0.8 by measurement, 9-22% less error at
-  // 10 and 30 s on cornell_fog and caustic_area and the same on the fog
-  // box (README "A slower radius schedule"). The photon noise, not the
-  // radius's bias, is most of the error at the pass counts users run.
-  float alpha = 0.8f;
+  // Zwicker's rate-optimal value): 0.9 by measurement. 0.8 gave 9-22% less
+  // error than 2/3 at 10 and 30 s (README "A slower radius schedule"); once
+  // the volume records' images took the walls' bias away (wall_images),
+  // 0.9 gave 4-19% less than 0.8 at 30 s on cornell_fog, the fog box and
+  // caustic_area (README "Volume estimates that stop at walls"). The photon
+  // noise, not the radius's bias, is most of the error at the pass counts
+  // users run.
+  float alpha = 0.9f;
   // Camera rays per sample that bring the emission seen in pixels whose
   // corners see a mirror or glass (spm_gather.cl, emission_chains); 0: each
   // sample's path brings it, everywhere.
