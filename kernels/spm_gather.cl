@@ -26,6 +26,8 @@ typedef struct SpmMaps {
   SpmGrid volume_grid;
   const __global uint* volume_items;
   const __global SpmVolumeRecord* volume;
+  SpmGrid gather_grid; /* the gather rays' grid of the same records (map_grids.h) */
+  const __global uint* gather_items;
   SpmGrid outer_grid; /* the volume records outside volume_core (map_grids.h) */
   const __global uint* outer_items;
   const __global SpmVolumeRecord* outer;
@@ -39,6 +41,7 @@ typedef struct SpmMaps {
   const __global float4* caustic_flux;
   float radius;
   float volume_radius; /* the volume records' kernel radius (integrator volume_radius) */
+  float gather_volume_radius; /* the gather rays' (SpmGatherParams) */
   float beam_radius;
   uint density_kernel;
   uint estimator;
@@ -217,15 +220,20 @@ inline float3 medium_nee(const SpmScene* s, int medium, float3 o, float3 d, floa
 
 /* The beam radiance estimate over the volume records along [t0, t1]: the
  * records near the scene and those beyond it are in two grids, each record
- * in one (host/spm/map_grids.h), so the estimate is the sum of both. */
-inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
-                               float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab, uint* tests) {
-  return beam_estimate(&maps->volume_grid, maps->volume_items, maps->volume, s->md.media, s->patches, medium, o, d,
-                       t0, t1, maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab,
-                       tests) +
+ * in one (host/spm/map_grids.h), so the estimate is the sum of both. A
+ * gather ray (`gather`) reads them with the gather rays' radius: where it
+ * is below the volume radius, through the grid built for it (a grid of
+ * radius R serves any radius up to R, but walks cells of 2R). */
+inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o, float3 d,
+                               float t0, float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab,
+                               uint* tests) {
+  const bool own = gather && maps->gather_volume_radius < maps->volume_radius;
+  const float r = gather ? maps->gather_volume_radius : maps->volume_radius;
+  return beam_estimate(own ? &maps->gather_grid : &maps->volume_grid, own ? maps->gather_items : maps->volume_items,
+                       maps->volume, s->md.media, s->patches, medium, o, d, t0, t1, r, maps->density_kernel,
+                       maps->estimator, min_depth, max_depth, tab, tests) +
          beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, s->patches, medium, o, d, t0,
-                       t1, maps->volume_radius, maps->density_kernel, maps->estimator, min_depth, max_depth, tab,
-                       tests);
+                       t1, r, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
 }
 
 /* The volume estimate (records or stream beams) along [t0, t1] in a
@@ -236,8 +244,9 @@ inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, int mediu
  * cube (0 before it), or, for a constant sigma_t, at the albedo grid's
  * (sigma_t times the distance); they end where the medium stops
  * scattering (medium_clip). */
-inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d,
-                                            float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
+inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o,
+                                            float3 d, float t0, float t1, uint min_depth, uint max_depth,
+                                            uint* tests) {
   const __global SpmMedium* m = &s->md.media[medium];
   float a = t0, b = t1, end_a = t0, end = t1;
   if (!grid_clip(&s->md, m->sigma_t_grid >= 0 ? m->sigma_t_grid : m->albedo_grid, o, d, &a, &b) ||
@@ -260,7 +269,7 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
                                               s->md.media, medium, o, d, ta, tb, maps->beam_radius,
                                               maps->density_kernel, min_depth, max_depth, &tab, tests);
     } else {
-      sum += exp(-tau) * records_estimate(s, maps, medium, o, d, ta, tb, min_depth, max_depth, &tab, tests);
+      sum += exp(-tau) * records_estimate(s, maps, gather, medium, o, d, ta, tb, min_depth, max_depth, &tab, tests);
     }
     float3 albedo;
     tau += medium_table_depth(&tab, tb, &albedo);
@@ -272,11 +281,12 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
 
 /* In-scattered radiance along [t0, t1] of o + t d in `medium` from the
  * photon maps, by the pass's volume estimator, from records (or beams) of
- * depths min_depth .. max_depth. */
-inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium, float3 o, float3 d, float t0,
-                              float t1, uint min_depth, uint max_depth, uint* tests) {
+ * depths min_depth .. max_depth; `gather`: along a gather ray
+ * (records_estimate). */
+inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o, float3 d,
+                              float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
   if (maps->estimator != SPM_ESTIMATOR_PAPER && medium_is_heterogeneous(&s->md.media[medium]))
-    return heterogeneous_volume_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
+    return heterogeneous_volume_estimate(s, maps, gather, medium, o, d, t0, t1, min_depth, max_depth, tests);
   SpmMediumTable homogeneous;
   homogeneous.n = 0u;
   if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
@@ -284,7 +294,7 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, int medium
                                 d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth,
                                 &homogeneous, tests);
   }
-  return records_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
+  return records_estimate(s, maps, gather, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
 }
 
 /* The camera segment's volume estimate, shared by a block's samples
@@ -293,7 +303,7 @@ inline float3 camera_volume_estimate(SpmVolumeReuse* reuse, const SpmScene* s, c
                                      float3 o, float3 d, float t0, float t1, uint min_depth, uint max_depth,
                                      uint* tests) {
   if (volume_reuse_hit(reuse, o, d, t0, t1, medium, min_depth, max_depth, maps->volume_radius)) return reuse->L;
-  const float3 L = volume_estimate(s, maps, medium, o, d, t0, t1, min_depth, max_depth, tests);
+  const float3 L = volume_estimate(s, maps, false, medium, o, d, t0, t1, min_depth, max_depth, tests);
   if (!isinf(t1)) reuse->L = L;
   return L;
 }
@@ -378,7 +388,7 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       if (medium >= 0) {
         const float t_end = hit ? h.t : SPM_INF;
         if (maps->terms & SPM_TERM_GATHER_VOLUME) {
-          li += tr * volume_estimate(s, maps, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
+          li += tr * volume_estimate(s, maps, true, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
         }
       }
       if (!hit) break;
@@ -554,7 +564,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         L += beta * volume_weight *
              (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit,
                                              tests)
-                    : volume_estimate(s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
+                    : volume_estimate(s, maps, false, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
       }
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && (maps->terms & SPM_TERM_INSCATTER) && maps->direct == SPM_DIRECT_NEE &&
@@ -633,6 +643,8 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.volume_grid = make_grid(volume_info, volume_start, volume_pos);
   maps.volume_items = volume_items;
   maps.volume = volume;
+  maps.gather_grid = make_grid(gather_info, gather_start, gather_pos);
+  maps.gather_items = gather_items;
   maps.outer_grid = make_grid(outer_info, outer_start, outer_pos);
   maps.outer_items = outer_items;
   maps.outer = outer;
@@ -648,6 +660,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.march_step = params.march_step;
   maps.radius = params.radius;
   maps.volume_radius = params.volume_radius;
+  maps.gather_volume_radius = params.gather_volume_radius;
   maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;
   maps.estimator = params.estimator;

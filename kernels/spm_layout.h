@@ -69,7 +69,7 @@
   F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
   F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
   F(SpmGatherParams, emission_chains) F(SpmGatherParams, volume_samples)                         \
-  F(SpmGatherParams, volume_radius)                                                              \
+  F(SpmGatherParams, volume_radius) F(SpmGatherParams, gather_volume_radius)                     \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

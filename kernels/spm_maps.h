@@ -11,6 +11,10 @@
   X(float4, volume_pos)        /* per item: the record's position; w: its depth */           \
   X(uint, volume_items)        /* per item: the record's index */                            \
   X(SpmVolumeRecord, volume)   /* the records */                                             \
+  X(SpmGridInfo, gather_info)  /* the gather rays' grid of those records (empty unless */     \
+  X(uint, gather_start)        /* their radius is below the volume radius): cell starts, */    \
+  X(float4, gather_pos)        /* item positions and depths, */                                \
+  X(uint, gather_items)        /* record indices */                                            \
   X(SpmGridInfo, outer_info)   /* the volume records outside volume_core: their own grid */  \
   X(uint, outer_start)         /* its cells' first items (CSR) */                            \
   X(float4, outer_pos)         /* per item: the record's position; w: its depth */           \

@@ -336,7 +336,11 @@ typedef struct SpmGatherParams {
    * others leave it out (spm_gather). */
   spm_uint volume_samples;
   spm_float volume_radius; /* the volume records' kernel radius in the pass (r unless volume_radius is set) */
-  spm_uint pad[2];
+  /* The gather rays' volume radius: r when volume_radius is larger, read
+   * through a grid of their own (gather_info, map_grids.h); else the
+   * volume radius, through the volume grid. */
+  spm_float gather_volume_radius;
+  spm_uint pad[1];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

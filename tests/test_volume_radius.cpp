@@ -1,11 +1,16 @@
 // The volume records' own kernel radius (integrator volume_radius): the
-// volume estimates, the camera's and the gather rays', read it and nothing
-// else does. With the stream width held, the photon maps are the same
-// whatever the radii, so a pass of cornell_fog's camera volume term with
-// radius 2.5 and volume radius 4 is, to the bit, the pass with radius 4;
-// and its surface terms are those of the pass without a volume radius.
+// camera segments' volume estimate reads it and nothing else does; the
+// gather rays read the volume records with the radius when that is smaller,
+// through a grid of their own. With the stream width held, the photon maps
+// are the same whatever the radii, so a pass of cornell_fog's camera volume
+// term with radius 2.5 and volume radius 4 is, to the bit, the pass with
+// radius 4; its surface terms are those of the pass without a volume
+// radius, and its gather rays' volume term is too, up to the order of the
+// sums (the grids list the records in other cells).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <vector>
 
@@ -38,6 +43,20 @@ TEST(VolumeRadius, IsTheRadiusTheVolumeEstimateReads) {
   EXPECT_NE(wide, narrow);
   EXPECT_EQ(one_pass(2.5f, 4.0f, SPM_TERM_SURFACE | SPM_TERM_GATHER_DIRECT | SPM_TERM_GATHER_SURFACE),
             one_pass(2.5f, std::nullopt, SPM_TERM_SURFACE | SPM_TERM_GATHER_DIRECT | SPM_TERM_GATHER_SURFACE));
+}
+
+TEST(VolumeRadius, GatherRaysKeepTheSmallerRadius) {
+  const std::vector<float> wide = one_pass(2.5f, 4.0f, SPM_TERM_GATHER_VOLUME);
+  const std::vector<float> narrow = one_pass(2.5f, std::nullopt, SPM_TERM_GATHER_VOLUME);
+  const std::vector<float> both_wide = one_pass(4.0f, std::nullopt, SPM_TERM_GATHER_VOLUME);
+  ASSERT_EQ(wide.size(), narrow.size());
+  double largest = 0.0, apart = 0.0;
+  for (size_t i = 0; i < wide.size(); ++i) {
+    largest = std::max(largest, double(std::abs(wide[i] - narrow[i])) / (std::abs(narrow[i]) + 1e-6));
+    apart = std::max(apart, double(std::abs(both_wide[i] - narrow[i])) / (std::abs(narrow[i]) + 1e-6));
+  }
+  EXPECT_LT(largest, 1e-4);
+  EXPECT_GT(apart, 1e-2);  // the radius 4 estimate is another one
 }
 
 }  // namespace

@@ -190,6 +190,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.max_depth = max_depth;
     params.radius = radius;
     params.volume_radius = volume_radius;
+    params.gather_volume_radius = final_gather_ ? std::min(radius, volume_radius) : volume_radius;
     params.beam_radius = beam_radius;
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;

@@ -121,6 +121,7 @@ size_t vector_bytes(const std::vector<T>& v) {
 size_t MapGridData::bytes() const {
   return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
          vector_bytes(volume.items) + vector_bytes(volume_records) + sizeof(SpmGridInfo) +
+         vector_bytes(gather.cell_start) + vector_bytes(gather_pos) + vector_bytes(gather.items) + sizeof(SpmGridInfo) +
          vector_bytes(outer.cell_start) + vector_bytes(outer_pos) + vector_bytes(outer.items) +
          vector_bytes(outer_records) + vector_bytes(surface.cell_start) +
          vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
@@ -159,6 +160,12 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
   outer.assign(far, volume.end());
   volume.erase(far, volume.end());
   d.volume = volume_grid(volume, volume_radius);
+  if (final_gather && radius < volume_radius) {
+    d.gather = volume_grid(volume, radius);
+    d.gather_pos = volume_item_positions(d.gather, volume);
+  } else {
+    d.gather = volume_grid({}, volume_radius);
+  }
   d.outer = volume_grid(outer, volume_radius);
   d.surface = surface_grid(maps.surface, surface, radius);
   d.caustic = surface_grid(maps.surface, caustic, radius);
@@ -183,6 +190,10 @@ MapGrids::MapGrids(Device& device, const MapGridData& d)
       volume_pos(device.upload("volume_pos", d.volume_pos)),
       volume_items(device.upload("volume_items", d.volume.items)),
       volume(device.upload("volume", d.volume_records)),
+      gather_info(device.upload("gather_info", std::vector<SpmGridInfo>{d.gather.info})),
+      gather_start(device.upload("gather_start", d.gather.cell_start)),
+      gather_pos(device.upload("gather_pos", d.gather_pos)),
+      gather_items(device.upload("gather_items", d.gather.items)),
       outer_info(device.upload("outer_info", std::vector<SpmGridInfo>{d.outer.info})),
       outer_start(device.upload("outer_start", d.outer.cell_start)),
       outer_pos(device.upload("outer_pos", d.outer_pos)),

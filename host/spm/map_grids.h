@@ -72,8 +72,8 @@ std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size
 // map's sphere grid, the surface map's point grid and the stream beams'
 // capsule grid with their per-item arrays, as MapGrids uploads them.
 struct MapGridData {
-  RecordGrid volume, outer, surface, beam, caustic;
-  std::vector<cl_float4> volume_pos, outer_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
+  RecordGrid volume, gather, outer, surface, beam, caustic;
+  std::vector<cl_float4> volume_pos, gather_pos, outer_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
   std::vector<SpmVolumeRecord> volume_records, outer_records;
   std::vector<SpmBeam> beams;
   size_t bytes() const;  // device memory of the upload
@@ -101,8 +101,14 @@ struct MapParts {
 // wider than 2r where the queries are (README "Why more streams cost the
 // fog box so much"). Each record is in one of the two grids, and the
 // gather sums both. The volume grids are over spheres of `volume_radius`,
-// the surface grids over disks of `radius`. With `walls`, the volume
-// records near them get their mirror images (WallImages::add).
+// the surface grids over disks of `radius`. With a final gather and a
+// volume radius above `radius`, the gather rays read the volume records
+// with `radius`, through a grid of their own over the records in the core
+// (`gather`; empty otherwise): one of `volume_radius` would make them walk
+// cells of 2 volume_radius, and their estimate is averaged over the
+// hemisphere, so the smaller radius costs them little variance (README
+// "The gather rays' own volume radius"). With `walls`, the volume records
+// near them get their mirror images (WallImages::add).
 MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
                           bool final_gather = false, const QueryBounds& reach = {},
                           const WallImages* walls = nullptr);
