@@ -175,18 +175,18 @@ int cmd_render(const RenderArgs& a) {
       const auto src = [](bool given) { return given ? "" : " (derived)"; };
       std::fprintf(stderr,
                    "spm: rendering %s at %dx%d, %s x %d spp on %s%s\n"
-                   "spm: streams %d%s x associated %d%s, radius %.6g%s, stream width %.6g%s, max_depth %d, rr_depth %d, "
-                   "max_bounces %d\n",
+                   "spm: streams %d%s x associated %d%s, radius %.6g%s, stream width %.6g%s, volume radius %.6g%s, "
+                   "max_depth %d, rr_depth %d, max_bounces %d\n",
                    a.scene.c_str(), settings.width, settings.height,
                    timed ? ("passes for " + std::to_string(in.time) + " s").c_str()
                          : (std::to_string(u.passes) + " pass(es)").c_str(),
                    u.spp, names.c_str(),
                    cluster.size() > 1 ? (" (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)").c_str() : "",
                    u.streams, src(in.streams > 0 && u.streams == in.streams), u.associated, src(in.associated > 0),
-                   u.radius, src(in.radius > 0), u.stream_width, src(in.stream_width > 0), in.max_depth, in.rr_depth,
-                   in.max_bounces);
+                   u.radius, src(in.radius > 0), u.stream_width, src(in.stream_width > 0), u.volume_radius,
+                   src(in.volume_radius > 0), in.max_depth, in.rr_depth, in.max_bounces);
       used_json = {{"streams", u.streams}, {"associated", u.associated}, {"radius", u.radius},
-                   {"stream_width", u.stream_width},     {"spp_per_pass", u.spp},      {"passes", u.passes},
+                   {"stream_width", u.stream_width},     {"volume_radius", u.volume_radius},     {"spp_per_pass", u.spp},      {"passes", u.passes},
                    {"max_depth", in.max_depth}, {"rr_depth", in.rr_depth}, {"max_bounces", in.max_bounces},
                    {"pilot_s", u.pilot_seconds}, {"time_budget_s", in.time}};
     };

@@ -20,6 +20,15 @@ int derived_associated(const IntegratorSettings& in) {
   return in.associated > 0 ? in.associated : kDefaultAssociated;
 }
 
+float derived_volume_radius(const Scene& scene) {
+  const IntegratorSettings& in = scene.integrator;
+  if (in.volume_radius > 0.0f) return in.volume_radius;
+  const bool homogeneous = std::none_of(scene.media.begin(), scene.media.end(),
+                                        [](const Medium& m) { return m.heterogeneous(); });
+  const bool wide = homogeneous && in.estimator == "bre" && in.direct == "nee";
+  return wide ? kVolumeRadiusFactor * in.radius : in.radius;
+}
+
 int samples_per_pass(const Scene& scene, int width, int height) {
   const double photons = double(derived_streams(scene.integrator)) * derived_associated(scene.integrator);
   const double spp = photons / (4.0 * double(width) * double(height));

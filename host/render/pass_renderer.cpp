@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdlib>
 
+#include "render/defaults.h"
 #include "scene/integrator_options.h"
 #include "spm/map_grids.h"
 #include "spm/maps_io.h"
@@ -96,7 +97,8 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
         return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
       })),
       walls_(tables),
-      wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {
+      wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE),
+      volume_radius0_(derived_volume_radius(scene)) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
   // own optical depth per channel (estimate.h); grey ones need none.
   for (const Medium& m : scene.media) {
@@ -228,7 +230,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   const float radius = pass_radius(in.radius, in.alpha, pass);
   const float width = in.stream_width * radius / in.radius;
   const float beam_radius = pass_beam_radius(in.radius, in.alpha, pass);
-  const float volume_radius = in.volume_radius > 0.0f ? in.volume_radius * radius / in.radius : radius;
+  const float volume_radius = volume_radius0_ * radius / in.radius;
   // The pass's streams batch by batch; their maps wait on the host until
   // they pass the host budget or the streams run out, and are then gathered
   // and dropped (the estimates are sums over records, so the parts add up

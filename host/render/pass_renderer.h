@@ -79,6 +79,7 @@ class PassRenderer {
   // The walls the volume records are mirrored across (the bre estimate only).
   WallImages walls_;
   bool wall_images_;
+  float volume_radius0_;  // the first pass's volume radius (derived_volume_radius)
 };
 
 }  // namespace spm

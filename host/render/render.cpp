@@ -201,7 +201,8 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   scene = sized_for_budget(scene, s, pilot.seconds);
   if (s.announce) {
     s.announce(RenderUsed{derived_streams(scene.integrator), derived_associated(scene.integrator),
-                          scene.integrator.radius, scene.integrator.stream_width, s.spp, s.passes, pilot.seconds});
+                          scene.integrator.radius, scene.integrator.stream_width, derived_volume_radius(scene),
+                          s.spp, s.passes, pilot.seconds});
   }
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);
