@@ -331,8 +331,10 @@ int main(int argc, char** argv) {
                      "Search radius r of the estimates, first pass (integrator 'radius'); default: derived from a "
                      "pilot of the pass's streams, the distance to the 32nd nearest event");
   render->add_option("--volume-radius", r.volume_radius,
-                     "Kernel radius of the volume records' estimate, first pass, shrinking as the radius does "
-                     "(integrator 'volume_radius'); default: the radius");
+                     "Kernel radius of the camera segments' volume estimate, first pass, shrinking as the radius "
+                     "does; gather rays read the records with the radius when it is smaller (integrator "
+                     "'volume_radius'); default: 1.5 radii where every medium is homogeneous, with bre and "
+                     "--direct nee, else the radius");
   render->add_option("--alpha", r.alpha,
                      "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 0.9");
   render->add_option("--time", r.time,

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "device/device.h"
+#include "render/render.h"
 #include "spm_types.h"
 
 namespace spm::test {
@@ -39,6 +40,17 @@ inline int marked_line(const std::string& text) {
   const size_t at = text.find("<!--here-->");
   EXPECT_NE(at, std::string::npos) << "text without <!--here-->";
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+}
+
+// The film of `passes` passes of `spp` samples each, seed `seed`, of the
+// gather's `terms` alone (SPM_TERM_* bits).
+inline std::vector<float> render_terms(const Scene& scene, int passes, int spp, uint32_t seed, uint32_t terms) {
+  RenderSettings s;
+  s.passes = passes;
+  s.spp = spp;
+  s.seed = seed;
+  s.terms = terms;
+  return render(scene, s, device()).rgb;
 }
 
 // The mean over pixels and channels of an image's values.

@@ -31,12 +31,7 @@ std::vector<float> one_pass(float radius, std::optional<float> volume_radius, ui
   scene.integrator.radius = radius;
   scene.integrator.stream_width = 2.5f;
   if (volume_radius) scene.integrator.volume_radius = *volume_radius;
-  spm::RenderSettings s;
-  s.passes = 1;
-  s.spp = 4;
-  s.seed = 9;
-  s.terms = terms;
-  return spm::render(scene, s, spm::test::device()).rgb;
+  return spm::test::render_terms(scene, 1, 4, 9, terms);
 }
 
 TEST(VolumeRadius, IsTheRadiusTheVolumeEstimateReads) {

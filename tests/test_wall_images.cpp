@@ -18,12 +18,7 @@ std::vector<float> one_pass(bool wall_images, uint32_t terms) {
   spm::Scene scene = spm::load_scene(SPM_SCENES_DIR "/cornell_fog.xml",
                                      {{"res", "24"}, {"streams", "4000"}, {"associated", "4"}});
   scene.integrator.wall_images = wall_images;
-  spm::RenderSettings s;
-  s.passes = 2;
-  s.spp = 4;
-  s.seed = 3;
-  s.terms = terms;
-  return spm::render(scene, s, spm::test::device()).rgb;
+  return spm::test::render_terms(scene, 2, 4, 3, terms);
 }
 
 TEST(WallImages, TheIntegratorPropertyTurnsThemOff) {

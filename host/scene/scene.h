@@ -141,8 +141,10 @@ struct IntegratorSettings {
   // for one sample in four").
   int volume_every = 4;
   // The volume records' kernel radius in the first pass, shrinking with the
-  // radius; 0: the radius. A thin fog's multiple scattering is smooth where
-  // a caustic on a surface is sharp (README "A wider kernel in thin fog").
+  // radius; 0: derived (render/defaults.h, derived_volume_radius). A thin
+  // fog's multiple scattering is smooth where a caustic on a surface is
+  // sharp (README "A wider kernel in thin fog", "A wider volume kernel by
+  // default").
   float volume_radius = 0.0f;
   std::string where;
 };

@@ -107,7 +107,7 @@ struct MapParts {
 // (`gather`; empty otherwise): one of `volume_radius` would make them walk
 // cells of 2 volume_radius, and their estimate is averaged over the
 // hemisphere, so the smaller radius costs them little variance (README
-// "The gather rays' own volume radius"). With `walls`, the volume records
+// "A wider volume kernel by default"). With `walls`, the volume records
 // near them get their mirror images (WallImages::add).
 MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
                           bool final_gather = false, const QueryBounds& reach = {},
