@@ -185,10 +185,18 @@ int cmd_render(const RenderArgs& a) {
                    u.streams, src(in.streams > 0 && u.streams == in.streams), u.associated, src(in.associated > 0),
                    u.radius, src(in.radius > 0), u.stream_width, src(in.stream_width > 0), u.volume_radius,
                    src(in.volume_radius > 0), in.max_depth, in.rr_depth, in.max_bounces);
-      used_json = {{"streams", u.streams}, {"associated", u.associated}, {"radius", u.radius},
-                   {"stream_width", u.stream_width},     {"volume_radius", u.volume_radius},     {"spp_per_pass", u.spp},      {"passes", u.passes},
-                   {"max_depth", in.max_depth}, {"rr_depth", in.rr_depth}, {"max_bounces", in.max_bounces},
-                   {"pilot_s", u.pilot_seconds}, {"time_budget_s", in.time}};
+      used_json = {{"streams", u.streams},
+                   {"associated", u.associated},
+                   {"radius", u.radius},
+                   {"stream_width", u.stream_width},
+                   {"volume_radius", u.volume_radius},
+                   {"spp_per_pass", u.spp},
+                   {"passes", u.passes},
+                   {"max_depth", in.max_depth},
+                   {"rr_depth", in.rr_depth},
+                   {"max_bounces", in.max_bounces},
+                   {"pilot_s", u.pilot_seconds},
+                   {"time_budget_s", in.time}};
     };
   }
   const auto started = std::chrono::steady_clock::now();

@@ -81,8 +81,9 @@ __kernel void spm_shared_beam_test(const __global SpmGridInfo* info, const __glo
                                    const __global float4* item_pos, const __global uint* items,
                                    const __global SpmVolumeRecord* records, const __global SpmMedium* media,
                                    const __global SpmPatch* patches, const __global float4* origins,
-                                   const __global float4* directions, const __global uint* depth_limits, __global float4* out, uint count, int medium,
-                                   float radius, uint density_kernel) {
+                                   const __global float4* directions, const __global uint* depth_limits,
+                                   __global float4* out, uint count, int medium, float radius,
+                                   uint density_kernel) {
   if (get_global_id(0) != 0) return;
   const SpmGrid grid = make_grid(info, cell_start, item_pos);
   SpmMediumTable homogeneous;

@@ -12,6 +12,7 @@
 #include "spm/record_grid.h"
 #include "spm/wall_images.h"
 #include "stats.h"
+#include "util/errors.h"
 #include "test_support.h"
 
 namespace {
@@ -418,7 +419,7 @@ SpmVolumeRecord record_at(glm::vec3 p, glm::vec3 d, uint32_t stream) {
 // at the null boundary. The image is the mirror position and direction, with
 // the record's flux, depth and medium, and names the wall's patch.
 TEST(WallImages, MirrorRecordsNearAWallOnly) {
-  const spm::WallImages walls(wall_tables());
+  const spm::WallImages walls(wall_tables(), 1.0f);
   EXPECT_EQ(walls.walls(), 1u);
   const glm::vec3 d = glm::normalize(glm::vec3(1.0f, 2.0f, -3.0f));
   std::vector<SpmVolumeRecord> records = {
@@ -429,6 +430,8 @@ TEST(WallImages, MirrorRecordsNearAWallOnly) {
       record_at({40.0f, 0.0f, 0.3f}, d, 4)};   // at the null boundary
   walls.add(records, 1.0f);
   ASSERT_EQ(records.size(), 7u);
+  std::vector<SpmVolumeRecord> copy = records;
+  EXPECT_THROW(walls.add(copy, 2.0f), spm::RuntimeError) << "a radius beyond the walls' index";
   const float expect_z[2] = {-0.4f, 0.7f};
   for (int k = 0; k < 2; ++k) {
     const SpmVolumeRecord& image = records[5 + k];
@@ -469,7 +472,7 @@ TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
   }
   std::vector<SpmVolumeRecord> mirrored = records;
   const spm::SceneTables tables = wall_tables();
-  spm::WallImages(tables).add(mirrored, radius);
+  spm::WallImages(tables, radius).add(mirrored, radius);
   ASSERT_GT(mirrored.size(), records.size() + records.size() / 5);
 
   // Groups of rays: x from -7 to 7 at heights 0.1, 0.5 and 0.9 (9 each, at

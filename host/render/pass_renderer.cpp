@@ -96,9 +96,9 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       specular_(std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) {
         return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
       })),
-      walls_(tables),
-      wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE),
-      volume_radius0_(derived_volume_radius(scene)) {
+      volume_radius0_(derived_volume_radius(scene)),
+      walls_(tables, volume_radius0_),
+      wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
   // own optical depth per channel (estimate.h); grey ones need none.
   for (const Medium& m : scene.media) {

@@ -76,10 +76,10 @@ class PassRenderer {
   bool final_gather_;
   // Whether the scene has mirrors or glass, where emission chains start (spm_chain_pixels).
   bool specular_;
+  float volume_radius0_;  // the first pass's volume radius (derived_volume_radius)
   // The walls the volume records are mirrored across (the bre estimate only).
   WallImages walls_;
   bool wall_images_;
-  float volume_radius0_;  // the first pass's volume radius (derived_volume_radius)
 };
 
 }  // namespace spm

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include "util/errors.h"
 
 namespace spm {
 
@@ -11,7 +14,9 @@ glm::vec3 v3(const float* f) { return glm::vec3(f[0], f[1], f[2]); }
 
 }  // namespace
 
-WallImages::WallImages(const SceneTables& t) {
+// The reach grows by a little against the rounding of a pass's volume
+// radius (the first pass's, scaled by r_k / r_0 in float).
+WallImages::WallImages(const SceneTables& t, float reach) : reach_(reach * 1.001f) {
   for (size_t i = 0; i < t.patches.size(); ++i) {
     const SpmPatch& p = t.patches[i];
     const spm_uint type = t.materials[t.shapes[t.patch_shapes[i]].material].type;
@@ -26,16 +31,12 @@ WallImages::WallImages(const SceneTables& t) {
     w.patch = static_cast<uint32_t>(i);
     walls_.push_back(w);
   }
-}
-
-void WallImages::index(float radius) const {
-  if (radius <= indexed_radius_) return;
-  indexed_radius_ = radius;
-  // Each wall's box, grown by the radius: where its records can be.
+  if (walls_.empty()) return;
+  // Each wall's box, grown by the reach: where its records can be.
   std::vector<glm::vec3> los, his;
   glm::vec3 lo(INFINITY), hi(-INFINITY);
   for (const Wall& w : walls_) {
-    const glm::vec3 half = glm::abs(w.u) * w.half_u + glm::abs(w.v) * w.half_v + glm::vec3(radius);
+    const glm::vec3 half = glm::abs(w.u) * w.half_u + glm::abs(w.v) * w.half_v + glm::vec3(reach_);
     los.push_back(w.centre - half);
     his.push_back(w.centre + half);
     lo = glm::min(lo, los.back());
@@ -57,7 +58,6 @@ void WallImages::index(float radius) const {
         for (int x = a.x; x <= b.x; ++x) lists[(size_t(z) * n + y) * n + x].push_back(k);
   }
   cell_start_.assign(cells + 1, 0);
-  cell_walls_.clear();
   for (size_t c = 0; c < cells; ++c) {
     cell_walls_.insert(cell_walls_.end(), lists[c].begin(), lists[c].end());
     cell_start_[c + 1] = static_cast<uint32_t>(cell_walls_.size());
@@ -66,7 +66,10 @@ void WallImages::index(float radius) const {
 
 void WallImages::add(std::vector<SpmVolumeRecord>& records, float radius) const {
   if (walls_.empty() || !(radius > 0.0f)) return;
-  index(radius);
+  if (radius > reach_) {
+    throw RuntimeError("wall images: radius " + std::to_string(radius) + " beyond the walls' index (" +
+                       std::to_string(reach_) + ")");
+  }
   const size_t count = records.size();
   for (size_t i = 0; i < count; ++i) {
     const glm::vec3 x = v3(records[i].position);

@@ -28,13 +28,16 @@ class WallImages {
  public:
   // The walls: the patches (SceneTables::patches) of shapes that stop light,
   // diffuse or mirror; not null boundaries, which light crosses, nor glass.
-  explicit WallImages(const SceneTables& tables);
+  // `reach`: the largest radius add() will be asked for (the first pass's
+  // volume radius: it shrinks over passes, METHOD.md 6).
+  WallImages(const SceneTables& tables, float reach);
 
-  // Appends to `records` the image of each record within `radius` of a
-  // wall's plane, on either side, whose foot on the plane lies on the wall:
-  // the position and direction mirrored, the flux, depth and medium kept,
-  // and `stream` set to SPM_RECORD_IMAGE | the wall's patch index. Images
-  // follow their records' order, so the result is deterministic.
+  // Appends to `records` the image of each record within `radius` (at most
+  // the reach) of a wall's plane, on either side, whose foot on the plane
+  // lies on the wall: the position and direction mirrored, the flux, depth
+  // and medium kept, and `stream` set to SPM_RECORD_IMAGE | the wall's patch
+  // index. Images follow their records' order, so the result is
+  // deterministic.
   void add(std::vector<SpmVolumeRecord>& records, float radius) const;
 
   size_t walls() const { return walls_.size(); }
@@ -45,16 +48,13 @@ class WallImages {
     float half_u, half_v;
     uint32_t patch;
   };
-  // The walls whose slab of half-depth `radius` meets each cell of a
-  // uniform grid over the walls' bounds, built for the largest radius asked
-  // so far (the radius shrinks over passes, METHOD.md 6).
-  void index(float radius) const;
-
   std::vector<Wall> walls_;
-  mutable float indexed_radius_ = -1.0f;
-  mutable glm::vec3 lo_{0.0f}, cell_{1.0f};
-  mutable glm::ivec3 dims_{1};
-  mutable std::vector<uint32_t> cell_start_, cell_walls_;
+  // A uniform grid over the walls' bounds, each cell listing (CSR) the
+  // walls whose slab of half-depth `reach_` meets it.
+  float reach_;
+  glm::vec3 lo_{0.0f}, cell_{1.0f};
+  glm::ivec3 dims_{1};
+  std::vector<uint32_t> cell_start_, cell_walls_;
 };
 
 }  // namespace spm
