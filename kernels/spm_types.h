@@ -271,10 +271,15 @@ typedef struct SpmBeam {
 #define SPM_RECORD_CAUSTIC 2u   /* the stream's last event before this one was specular: light a final
                                  * gather ray cannot bring, read at the camera's own vertex (spm_gather.cl) */
 
-/* A volume record's `stream` with this bit set: the record is the mirror
- * image of another across the wall of patch (stream & ~SPM_RECORD_IMAGE),
- * made by the host for the gather (host/spm/wall_images.h). */
-#define SPM_RECORD_IMAGE 0x80000000u
+/* A volume record's `stream` in the gather, once its stream id is no longer
+ * read (host/spm/wall_images.h): with SPM_RECORD_WALL set, the record lies
+ * within the volume radius of the wall of patch (stream & SPM_RECORD_PATCH)
+ * and counts only on its own side of the wall's plane; with SPM_RECORD_IMAGE
+ * too, it is the mirror image of such a record, made by the host, and counts
+ * only on the other side of the plane, its record's. */
+#define SPM_RECORD_WALL 0x80000000u
+#define SPM_RECORD_IMAGE 0x40000000u
+#define SPM_RECORD_PATCH 0x3fffffffu
 
 /* Surface photon map record: one per alive associated photon of a stream at a
  * diffuse event. */

@@ -417,7 +417,8 @@ SpmVolumeRecord record_at(glm::vec3 p, glm::vec3 d, uint32_t stream) {
 // Which records get an image: those within r of the wall's plane, on either
 // side, whose foot lies on the rectangle; not those farther, beside it, or
 // at the null boundary. The image is the mirror position and direction, with
-// the record's flux, depth and medium, and names the wall's patch.
+// the record's flux, depth and medium, and names the wall's patch; the
+// record names it too, and the others keep their stream ids.
 TEST(WallImages, MirrorRecordsNearAWallOnly) {
   const spm::WallImages walls(wall_tables(), 1.0f);
   EXPECT_EQ(walls.walls(), 1u);
@@ -432,11 +433,13 @@ TEST(WallImages, MirrorRecordsNearAWallOnly) {
   ASSERT_EQ(records.size(), 7u);
   std::vector<SpmVolumeRecord> copy = records;
   EXPECT_THROW(walls.add(copy, 2.0f), spm::RuntimeError) << "a radius beyond the walls' index";
+  for (uint32_t k = 2; k < 5; ++k) EXPECT_EQ(records[k].stream, k);
   const float expect_z[2] = {-0.4f, 0.7f};
   for (int k = 0; k < 2; ++k) {
     const SpmVolumeRecord& image = records[5 + k];
     const SpmVolumeRecord& source = records[k];
-    EXPECT_EQ(image.stream, SPM_RECORD_IMAGE | 0u);
+    EXPECT_EQ(image.stream, SPM_RECORD_WALL | SPM_RECORD_IMAGE | 0u);
+    EXPECT_EQ(source.stream, SPM_RECORD_WALL | 0u) << "the record counts only on its side of the wall";
     EXPECT_EQ(image.position[0], source.position[0]);
     EXPECT_EQ(image.position[1], source.position[1]);
     EXPECT_NEAR(image.position[2], expect_z[k], 1e-6f);
@@ -457,8 +460,8 @@ TEST(WallImages, MirrorRecordsNearAWallOnly) {
 // 0.9 r) and rays that end on it at 45 degrees, the plain estimate is the
 // part of each disk above the wall, averaged along the ray, while with the
 // wall's images it is rho phi L / (4 pi); both within 4 standard errors.
-// A ray beyond the wall reads no image: it gets what it got without them.
-// Rays sit 2 r apart, so their estimates are independent.
+// A ray beyond the wall reads neither the images nor the records near the
+// wall, which without them leak through it. Rays sit 2 r apart, so their estimates are independent.
 TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
   const float radius = 1.0f, phi = 0.01f, depth = 4.0f;
   const double rho = 50.0;
@@ -541,8 +544,60 @@ TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
     if (g == 0 || g == 3) EXPECT_LT(part / rays_in, 1.0 - 6.0 * error) << "group " << g << " tells them apart";
   }
   for (int i = beyond; i < n; ++i) {
-    EXPECT_GT(plain[i].s[0], 0.0f);
-    EXPECT_NEAR(with[i].s[0], plain[i].s[0], 1e-5f * plain[i].s[0]) << "ray " << i << " beyond the wall";
+    EXPECT_GT(plain[i].s[0], 0.0f) << "ray " << i << ": without images, the disks leak through the wall";
+    EXPECT_EQ(with[i].s[0], 0.0f) << "ray " << i << " beyond the wall";
+  }
+}
+
+// A sheet with fog on both sides (a mirror or a lamp's box hanging in fog):
+// records spread evenly over -4 < z < 4, three times as dense below the
+// wall at z = 0 as above it. Along rays beside the wall on either side (at
+// 0.1 r to 0.9 r), each side's estimate is its own density's rho phi L /
+// (4 pi), within 4 standard errors: the images stand in for the other
+// side's records, which the disks no longer read through the sheet.
+TEST(BeamEstimate, WallImagesKeepEachSideOfASheetToItself) {
+  const float radius = 1.0f, phi = 0.01f, depth = 4.0f;
+  const double rho[2] = {50.0, 150.0};  // above, below
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<SpmVolumeRecord> records;
+  for (int side = 0; side < 2; ++side) {
+    const int count = int(rho[side] * 20.0 * 20.0 * depth);
+    for (int i = 0; i < count; ++i) {
+      const float z = depth * u(rng);
+      records.push_back(record_at({-10.0f + 20.0f * u(rng), -10.0f + 20.0f * u(rng), side == 0 ? z : -z},
+                                  {0.0f, 0.0f, 1.0f}, uint32_t(i)));
+      for (float& f : records.back().flux) f = phi;
+    }
+  }
+  const spm::SceneTables tables = wall_tables();
+  spm::WallImages(tables, radius).add(records, radius);
+
+  // 9 rays at each height (y = -8, -6, ..., 8), x from -7 to 7.
+  const float heights[6] = {0.1f, 0.5f, 0.9f, -0.1f, -0.5f, -0.9f};
+  const int per = 9, n = 6 * per;
+  std::vector<cl_float4> origins, dirs;
+  for (float h : heights)
+    for (int k = 0; k < per; ++k) {
+      origins.push_back({{-7.0f, -8.0f + 2.0f * k, h, 0.0f}});
+      dirs.push_back({{1.0f, 0.0f, 0.0f, 14.0f}});
+    }
+  auto& dev = spm::test::device();
+  SpmMedium clear{};
+  clear.albedo[0] = clear.albedo[1] = clear.albedo[2] = 1.0f;
+  clear.phase = SPM_PHASE_ISOTROPIC;
+  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{clear});
+  const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
+  BeamTestSettings t;
+  t.radius = radius;
+  t.walls = tables.patches;
+  const auto got = beam_test(upload(dev, records, radius), media, ob, db, n, t);
+  for (int g = 0; g < 6; ++g) {
+    const double density = rho[g < 3 ? 0 : 1];
+    double mean = 0.0;
+    for (int i = g * per; i < (g + 1) * per; ++i) mean += got[i].s[0] / (density * phi * 14.0 / (4.0 * kPi));
+    const double error = 1.0 / std::sqrt(per * density * kPi * radius * radius * 14.0);
+    EXPECT_NEAR(mean / per, 1.0, 4.0 * error) << "height " << heights[g];
   }
 }
 

@@ -76,12 +76,17 @@ void WallImages::add(std::vector<SpmVolumeRecord>& records, float radius) const 
     const glm::vec3 q = glm::floor((x - lo_) / cell_);
     if (glm::any(glm::lessThan(q, glm::vec3(0.0f))) || glm::any(glm::greaterThanEqual(q, glm::vec3(dims_)))) continue;
     const size_t c = (size_t(q.z) * dims_.y + size_t(q.y)) * dims_.x + size_t(q.x);
+    float nearest = INFINITY;
     for (uint32_t k = cell_start_[c]; k < cell_start_[c + 1]; ++k) {
       const Wall& w = walls_[cell_walls_[k]];
       const float s = glm::dot(x - w.centre, w.normal);
       if (!(std::abs(s) < radius) || s == 0.0f) continue;
       const glm::vec3 foot = x - s * w.normal - w.centre;
       if (std::abs(glm::dot(foot, w.u)) > w.half_u || std::abs(glm::dot(foot, w.v)) > w.half_v) continue;
+      if (std::abs(s) < nearest) {
+        nearest = std::abs(s);
+        records[i].stream = SPM_RECORD_WALL | w.patch;
+      }
       SpmVolumeRecord image = records[i];
       const glm::vec3 p = x - 2.0f * s * w.normal;
       const glm::vec3 d = v3(image.direction);
@@ -90,7 +95,7 @@ void WallImages::add(std::vector<SpmVolumeRecord>& records, float radius) const 
         image.position[a] = p[a];
         image.direction[a] = e[a];
       }
-      image.stream = SPM_RECORD_IMAGE | w.patch;
+      image.stream = SPM_RECORD_WALL | SPM_RECORD_IMAGE | w.patch;
       records.push_back(image);
     }
   }

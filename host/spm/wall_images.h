@@ -9,9 +9,10 @@
 // beside it. As on surfaces (spm_deposit, surface_estimate), the reflection
 // method of kernel density estimation (Silverman 1986, 2.10) fills that
 // space with the mirror image of each record within r of the wall, over
-// the wall's rectangle, and the estimate counts an image only from points
-// on its record's side of the wall (kernels/lib/estimate.h, beam_estimate),
-// so that a ray beyond the wall reads none.
+// the wall's rectangle, and the estimate counts a record near a wall only
+// from points on its side, and its image only from points on the record's
+// side (kernels/lib/estimate.h, beam_estimate), so that a ray beyond the
+// wall reads neither.
 #pragma once
 
 #include <cstdint>
@@ -35,9 +36,14 @@ class WallImages {
   // Appends to `records` the image of each record within `radius` (at most
   // the reach) of a wall's plane, on either side, whose foot on the plane
   // lies on the wall: the position and direction mirrored, the flux, depth
-  // and medium kept, and `stream` set to SPM_RECORD_IMAGE | the wall's patch
-  // index. Images follow their records' order, so the result is
-  // deterministic.
+  // and medium kept, and `stream` set to SPM_RECORD_WALL | SPM_RECORD_IMAGE |
+  // the wall's patch index. Each such record's own `stream` becomes
+  // SPM_RECORD_WALL | the patch index of its nearest such wall, so that it
+  // counts only on its side of it: where a sheet has fog on both sides, a
+  // disk reaching through it would otherwise read the other side's records
+  // as well as the images that stand in for them. The stream ids are not
+  // read after this (spm_types.h). Images follow their records' order, so
+  // the result is deterministic.
   void add(std::vector<SpmVolumeRecord>& records, float radius) const;
 
   size_t walls() const { return walls_.size(); }

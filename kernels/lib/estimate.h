@@ -44,9 +44,11 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  * out: their paths would be longer than max_depth (METHOD.md 10); records
  * shallower than min_rec_depth too (2: single scattering comes from
  * next-event estimation).
- * A record flagged SPM_RECORD_IMAGE is the mirror image of one across a
- * wall (host/spm/wall_images.h) and counts only where the ray's point is on
- * the other side of the wall's plane `patches` holds, its record's side.
+ * A record flagged SPM_RECORD_WALL lies near a wall (host/spm/wall_images.h)
+ * and counts only where the ray's point is on its side of the wall's plane
+ * (`patches` holds it), so that a ray beyond the wall reads none; one
+ * flagged SPM_RECORD_IMAGE too is the mirror image of such a record and
+ * counts only on the other side, its record's.
  * *tests counts the records examined (the profile's sphere tests). */
 inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, const __global SpmPatch* patches, int m, float3 o,
@@ -79,12 +81,13 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
       const __global SpmVolumeRecord* rec = &records[items[k]];
       bool in = (t >= ta) & (t < tb) & (d2 < r2) & (item.w <= (float)max_rec_depth) &
                 (item.w >= (float)min_rec_depth) & (rec->medium == m);
-      /* Images are a few records near walls: a branch, not a select. */
+      /* Records near walls are a few: a branch, not a select. */
       const uint stream = rec->stream;
-      if (in && (stream & SPM_RECORD_IMAGE)) {
-        const __global SpmPatch* wall = &patches[stream & ~SPM_RECORD_IMAGE];
+      if (in && (stream & SPM_RECORD_WALL)) {
+        const __global SpmPatch* wall = &patches[stream & SPM_RECORD_PATCH];
         const float3 c = load3(wall->center), n = cross(load3(wall->u), load3(wall->v));
-        in = dot(o + t * d - c, n) * dot(x - c, n) < 0.0f;
+        const float side = dot(o + t * d - c, n) * dot(x - c, n);
+        in = (stream & SPM_RECORD_IMAGE) ? side < 0.0f : side >= 0.0f;
       }
       /* In a homogeneous medium every record's weight is computed and a
        * select keeps those in range: whether a record is in range depends
