@@ -107,13 +107,17 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   return load3(m->reflectance) * SPM_INV_PI * cos_x * li * tr;
 }
 
-/* A light point y picked by power for single scattering along o + t d
- * (METHOD.md 5), and the ray's equi-angular frame about it (Kulla and
- * Fajardo 2012): t = delta + D tan(theta), theta uniform between a
- * segment's ends as seen from y, at distance D from the ray. */
+/* A light picked by power for single scattering along o + t d (METHOD.md
+ * 5), and the ray's equi-angular frame (Kulla and Fajardo 2012) about a
+ * point y of it: t = delta + D tan(theta), theta uniform between a
+ * segment's ends as seen from y, at distance D from the ray. y is a
+ * sphere's centre, else a uniform point of the light (its primitive picked
+ * by area), else the point light; the light is then sampled afresh from
+ * the point the distance picks (nee_arrival), so y steers only the
+ * distance, and any y leaves the estimate unbiased. */
 typedef struct SpmNeeLight {
   const __global SpmLight* light;
-  float3 y, yn;
+  float3 y;
   float prob;
   float delta, D;
 } SpmNeeLight;
@@ -122,22 +126,34 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
   SpmNeeLight n;
   float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 0);
   u.zw = stratify2(rng, SPM_RNG_MEDIUM_NEE, 0u);
-  n.light = sample_light_point(s, u, &n.y, &n.yn, &n.prob);
+  n.light = &s->lights[pick_light(s, u.x, &n.prob)];
+  if (n.light->type == SPM_LIGHT_AREA) {
+    float prim_prob;
+    const __global SpmPrim* prim = pick_light_prim(s, n.light, u.y, &prim_prob);
+    float3 yn;
+    if (prim->kind == SPM_PRIM_SPHERE) n.y = load3(prim->p0);
+    else sample_prim_point(s, prim, u.z, u.w, &n.y, &yn);
+  } else {
+    n.y = load3(n.light->position);
+  }
   n.delta = dot(n.y - o, d);
   n.D = length(n.y - (o + n.delta * d));
   return n;
 }
 
-/* The light of n's point scattered at x towards -d: its radiance, the
- * phase function and the shadow ray's transmittance. */
+/* The light of n's light scattered at x towards -d: a point of it sampled
+ * from x (sample_light_from; the uniforms of `lane`), the phase function
+ * and the shadow ray's transmittance. */
 inline float3 nee_arrival(const SpmScene* s, const SpmNeeLight* n, float3 x, float3 d, float g, int medium,
-                          float step, SpmRng rng) {
-  float3 wi;
+                          float step, SpmRng rng, uint lane) {
+  float3 u = rng4(rng, SPM_RNG_MEDIUM_NEE, lane).xyz;
+  u.yz = stratify2(rng, SPM_RNG_MEDIUM_NEE, lane);
+  float3 wi, p, pn;
   float dist;
-  const float3 li = light_incident(n->light, x, n->y, n->yn, n->prob, &wi, &dist);
+  const float3 li = sample_light_from(s, n->light, n->prob, x, u, &wi, &dist, &p, &pn);
   if (max_comp(li) <= 0.0f) return (float3)(0.0f);
   /* Stop short of an area light's own surface; point lights have none. */
-  const float reach = dot(n->yn, n->yn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
+  const float reach = dot(pn, pn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
   return li * phase_hg(dot(wi, d), g) * shadow_transmittance(s, x, wi, reach, medium, step, rng, SPM_TR_NEE_SHADOW);
 }
 
@@ -174,7 +190,7 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
     const float pdf_angular =
         angular ? n.D / ((th1 - th0) * (n.D * n.D + (t - n.delta) * (t - n.delta))) : 0.0f;
     const float pdf_flight = flight ? sigma * exp(-sigma * (t - t0)) / mass : 0.0f;
-    sum += exp(-sigma_t * (t - t0)) * sigma_s * nee_arrival(s, &n, o + t * d, d, g, medium, step, rng) /
+    sum += exp(-sigma_t * (t - t0)) * sigma_s * nee_arrival(s, &n, o + t * d, d, g, medium, step, rng, 2u + k) /
            (pdf_angular + pdf_flight);
   }
   return sum;
@@ -203,7 +219,7 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
   const float3 x = o + t * d;
   const float3 sigma_s = medium_sigma_t(&s->md, medium, x) * medium_albedo(&s->md, medium, x);
   if (max_comp(sigma_s) <= 0.0f) return (float3)(0.0f);
-  const float3 arrival = nee_arrival(s, &n, x, d, g, medium, step, rng);
+  const float3 arrival = nee_arrival(s, &n, x, d, g, medium, step, rng, 2u);
   if (max_comp(arrival) <= 0.0f) return (float3)(0.0f);
   return medium_transmittance(&s->md, medium, o, d, t0, t, step, rng, tr_lane(SPM_TR_NEE_CAMERA, 0u)) * sigma_s *
          arrival / pdf;

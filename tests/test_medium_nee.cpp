@@ -47,7 +47,65 @@ double single_scattering() {
   return kSigmaT * kAlbedo * kIntensity / kD * sum * h / 3;
 }
 
-std::string scene_xml(const char* direct, int streams, double radius, int res, int samples) {
+// A sphere light of radius kR and radiance kRadiance at the point light's
+// place: about the same power, seen from the ray under a cone of up to 24
+// degrees, so that sampling it by area would waste half its points.
+constexpr double kR = 0.4, kRadiance = 20.0;
+
+// As single_scattering(), with the light the sphere: at each point of the
+// ray, the radiance through the cone the sphere subtends there, attenuated
+// to the sphere's near surface, by the midpoint rule in 1 - cos(alpha) (the
+// solid angle's measure) and the azimuth; along the ray, Simpson's rule in
+// theta about the sphere's centre as before.
+double sphere_single_scattering() {
+  const double a = std::atan((kNear - kDelta) / kD), b = 0.5 * kPi;
+  const int n = 4000, cone = 64, azimuths = 64;
+  const double h = (b - a) / n;
+  double sum = 0.0;
+  for (int i = 0; i <= n; ++i) {
+    const double th = std::min(a + i * h, b - 1e-12);
+    const double t = kDelta + kD * std::tan(th);
+    // From x = (0, 0, t) to the centre (0, D, Delta): the cone's axis w and
+    // a frame (e1, e2) about it; the ray's direction is d = +z.
+    const double wy = kD, wz = kDelta - t, dc = std::hypot(wy, wz);
+    const double w[3] = {0.0, wy / dc, wz / dc}, e1[3] = {1.0, 0.0, 0.0}, e2[3] = {0.0, -w[2], w[1]};
+    const double sin2_max = kR * kR / (dc * dc), one_minus_max = 1.0 - std::sqrt(1.0 - sin2_max);
+    double in = 0.0;
+    for (int j = 0; j < cone; ++j) {
+      const double one_minus_cos = (j + 0.5) / cone * one_minus_max, cos_a = 1.0 - one_minus_cos;
+      const double sin_a = std::sqrt(one_minus_cos * (2.0 - one_minus_cos));
+      const double r = dc * cos_a - std::sqrt(std::max(0.0, kR * kR - dc * dc * sin_a * sin_a));
+      for (int k = 0; k < azimuths; ++k) {
+        const double phi = 2.0 * kPi * (k + 0.5) / azimuths;
+        const double cos_d = cos_a * w[2] + sin_a * (std::cos(phi) * e1[2] + std::sin(phi) * e2[2]);
+        in += std::exp(-kSigmaT * r) * hg(cos_d, kG);
+      }
+    }
+    in *= kRadiance * 2.0 * kPi * one_minus_max / (cone * azimuths);
+    const double f = std::exp(-kSigmaT * (t - kNear)) * in * kD / (std::cos(th) * std::cos(th));
+    sum += f * (i == 0 || i == n ? 1 : (i % 2 ? 4 : 2));
+  }
+  return kSigmaT * kAlbedo * sum * h / 3;
+}
+
+std::string point_light() {
+  std::ostringstream x;
+  x << R"(<emitter type="point"><point name="position" x="0" y=")" << kD << R"(" z=")" << kDelta
+    << R"("/><rgb name="intensity" value=")" << kIntensity << R"("/></emitter>)";
+  return x.str();
+}
+
+std::string sphere_light() {
+  std::ostringstream x;
+  x << R"(<shape type="sphere"><point name="center" x="0" y=")" << kD << R"(" z=")" << kDelta
+    << R"("/><float name="radius" value=")" << kR << R"("/>
+    <emitter type="area"><rgb name="radiance" value=")"
+    << kRadiance << R"("/></emitter><ref name="exterior" id="fog"/></shape>)";
+  return x.str();
+}
+
+std::string scene_xml(const char* direct, int streams, double radius, int res, int samples,
+                      const std::string& light = point_light()) {
   std::ostringstream x;
   x << R"(<scene version="3.0.0">
   <integrator type="spm"><integer name="max_depth" value="2"/><string name="direct" value=")"
@@ -68,8 +126,7 @@ std::string scene_xml(const char* direct, int streams, double radius, int res, i
     << samples << R"("/></sampler>
     <ref id="fog"/>
   </sensor>
-  <emitter type="point"><point name="position" x="0" y=")"
-    << kD << R"(" z=")" << kDelta << R"("/><rgb name="intensity" value=")" << kIntensity << R"("/></emitter>
+  )" << light << R"(
 </scene>)";
   return x.str();
 }
@@ -92,6 +149,28 @@ TEST(MediumNee, SingleScatteringOfAPointLightMatchesTheIntegral) {
   // r of the ray: kept by mistake, they would add the integral again.
   // Every pixel is an independent mean of 1024 samples of the same ray (the
   // field of view is 0.05 degrees): their spread gives the standard error.
+  const int n = image.width * image.height;
+  const double mean = image_mean(image);
+  double var = 0.0;
+  for (int i = 0; i < n; ++i) var += (image.rgb[3 * i] - mean) * (image.rgb[3 * i] - mean);
+  const double se = std::sqrt(var / (n - 1) / n);
+  EXPECT_GT(se, 0.0);
+  EXPECT_LT(4 * se, 0.01 * expected) << "the bound must catch a 1% error";
+  EXPECT_NEAR(mean, expected, 4 * se + 2e-3 * expected) << "standard error " << se;
+}
+
+// The same with a sphere light, which next-event estimation samples by the
+// cone it subtends (lib/lights.h, sample_light_from): a wrong solid angle
+// or a point off the sphere's near side shows in the mean.
+TEST(MediumNee, SingleScatteringOfASphereLightMatchesTheIntegral) {
+  const double expected = sphere_single_scattering();
+  const spm::Scene scene =
+      spm::load_scene_string(scene_xml("nee", 200000, 0.1, 16, 1024, sphere_light()), "sphere_halo.xml");
+  spm::RenderSettings settings;
+  settings.seed = 7;
+  settings.passes = 1;
+  settings.spp = 1024;
+  const spm::Image image = spm::render(scene, settings, spm::test::device());
   const int n = image.width * image.height;
   const double mean = image_mean(image);
   double var = 0.0;

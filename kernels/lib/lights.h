@@ -19,22 +19,29 @@ inline uint pick_light(const SpmScene* s, float u, float* prob) {
   return i;
 }
 
-/* Uniform point on an area light's surface (pdf 1/area) with its normal on the
- * emitting side. */
-inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* l, float3 u, float3* p,
-                                    float3* n) {
-  uint lo = l->prim_begin, hi = l->prim_begin + l->prim_count - 1;
+/* An area light's primitive picked by area (u: a uniform), with its
+ * probability in *prob (light_prims' cdf runs over the light's area). */
+inline const __global SpmPrim* pick_light_prim(const SpmScene* s, const __global SpmLight* l, float u, float* prob) {
+  const uint first = l->prim_begin;
+  uint lo = first, hi = first + l->prim_count - 1;
   while (lo < hi) {
     const uint mid = (lo + hi) / 2;
-    if (s->light_prims[mid].cdf > u.x) hi = mid;
+    if (s->light_prims[mid].cdf > u) hi = mid;
     else lo = mid + 1;
   }
-  const __global SpmPrim* prim = &s->prims[s->light_prims[lo].prim];
+  *prob = s->light_prims[lo].cdf - (lo > first ? s->light_prims[lo - 1].cdf : 0.0f);
+  return &s->prims[s->light_prims[lo].prim];
+}
+
+/* Uniform point on primitive `prim` of an area light (pdf 1/its area) with
+ * its normal on the emitting side. */
+inline void sample_prim_point(const SpmScene* s, const __global SpmPrim* prim, float u1, float u2, float3* p,
+                              float3* n) {
   if (prim->kind == SPM_PRIM_SPHERE) {
-    *n = sample_uniform_sphere(u.y, u.z);
+    *n = sample_uniform_sphere(u1, u2);
     *p = load3(prim->p0) + prim->p1[0] * *n;
   } else {
-    const float2 b = sample_triangle(u.y, u.z);
+    const float2 b = sample_triangle(u1, u2);
     const float3 p0 = load3(prim->p0);
     const float3 p1 = load3(prim->p1);
     const float3 p2 = load3(prim->p2);
@@ -42,6 +49,14 @@ inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* 
     *n = normalize(cross(p1 - p0, p2 - p0));
   }
   if (s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS) *n = -*n;
+}
+
+/* Uniform point on an area light's surface (pdf 1/area) with its normal on the
+ * emitting side. */
+inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* l, float3 u, float3* p,
+                                    float3* n) {
+  float prob;
+  sample_prim_point(s, pick_light_prim(s, l, u.x, &prob), u.y, u.z, p, n);
 }
 
 /* A point on a light picked by power (METHOD.md 2): its position and, for
@@ -78,13 +93,59 @@ inline float3 light_incident(const __global SpmLight* l, float3 x, float3 p, flo
   return load3(l->emission) * (profile / (d2 * prob));
 }
 
-/* Next-event estimation from x: a point on a light chosen by power
- * (light_incident of sample_light_point). */
+/* Next-event estimation from x towards light l, picked with probability
+ * prob: the radiance it sends to x divided by the sampling pdf (per unit
+ * solid angle at x, the cosine at x not included), or 0, with the light
+ * point *p, its normal *n (0 for point and spot lights) and the shadow ray
+ * (*wi, *dist). An area light's primitive is picked by area (u.x). A
+ * sphere that emits outwards, seen from outside, is sampled uniformly
+ * within the cone it subtends at x (u.yz), as pbrt-v4's and Mitsuba 3's
+ * spheres are: area sampling would spend half its points on the far side,
+ * which x cannot see, and weigh the near cap's points by 1 / distance^2,
+ * most unevenly for points near the light, where single scattering in fog
+ * is brightest. Other primitives get a uniform point of their area. */
+inline float3 sample_light_from(const SpmScene* s, const __global SpmLight* l, float prob, float3 x, float3 u,
+                                float3* wi, float* dist, float3* p, float3* n) {
+  if (l->type == SPM_LIGHT_AREA) {
+    float prim_prob;
+    const __global SpmPrim* prim = pick_light_prim(s, l, u.x, &prim_prob);
+    const float3 c = load3(prim->p0);
+    const float R = prim->p1[0];
+    const float3 to = c - x;
+    const float dc2 = dot(to, to);
+    if (prim->kind == SPM_PRIM_SPHERE && !(s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS) &&
+        dc2 > 1.0001f * R * R) {
+      /* 1 - cos(theta_max) from sin^2, so that a small cone keeps its
+       * precision; the direction's 1 - cos(theta) likewise. */
+      const float sin2_max = R * R / dc2;
+      const float one_minus_max = sin2_max / (1.0f + sqrt(1.0f - sin2_max));
+      const float one_minus_cos = u.y * one_minus_max;
+      const float sin2 = one_minus_cos * (2.0f - one_minus_cos);
+      const float phi = 2.0f * SPM_PI * u.z;
+      const float dc = sqrt(dc2);
+      const float sin_t = sqrt(sin2);
+      *wi = to_world(SPM_F3(sin_t * cos(phi), sin_t * sin(phi), 1.0f - one_minus_cos), to / dc);
+      /* The near intersection of the direction with the sphere. */
+      *dist = dc * (1.0f - one_minus_cos) - sqrt(fmax(0.0f, R * R - dc2 * sin2));
+      *p = x + *dist * *wi;
+      *n = normalize(*p - c);
+      return load3(l->emission) * (2.0f * SPM_PI * one_minus_max / (prob * prim_prob));
+    }
+    sample_prim_point(s, prim, u.y, u.z, p, n);
+  } else {
+    *p = load3(l->position);
+    *n = (float3)(0.0f);
+  }
+  return light_incident(l, x, *p, *n, prob, wi, dist);
+}
+
+/* Next-event estimation from x: a light chosen by power (u.x), then
+ * sample_light_from (u.yzw). */
 inline float3 sample_light_incident(const SpmScene* s, float3 x, float4 u, float3* wi, float* dist,
                                     float3* light_p, float3* light_n) {
   float prob;
-  const __global SpmLight* l = sample_light_point(s, u, light_p, light_n, &prob);
-  return light_incident(l, x, *light_p, *light_n, prob, wi, dist);
+  const __global SpmLight* l = &s->lights[pick_light(s, u.x, &prob)];
+  return sample_light_from(s, l, prob, x, u.yzw, wi, dist, light_p, light_n);
 }
 
 #endif
