@@ -110,16 +110,21 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
 /* A light picked by power for single scattering along o + t d (METHOD.md
  * 5), and the ray's equi-angular frame (Kulla and Fajardo 2012) about a
  * point y of it: t = delta + D tan(theta), theta uniform between a
- * segment's ends as seen from y, at distance D from the ray. y is a
- * sphere's centre, else a uniform point of the light (its primitive picked
- * by area), else the point light; the light is then sampled afresh from
- * the point the distance picks (nee_arrival), so y steers only the
- * distance, and any y leaves the estimate unbiased. */
+ * segment's ends as seen from y, at distance D from the ray. For a sphere
+ * that emits outwards, y is its centre and the light is sampled afresh by
+ * its cone from the point the distance picks (`cone`; sample_light_from):
+ * the cone's solid angle falls as 1 / distance^2 from the centre, as the
+ * equi-angular pdf does, so their ratio stays bounded. Any other light's y
+ * is a uniform point of it (its primitive picked by area), or the point
+ * light, and is the light point itself: a fresh point near the ray where
+ * y is far would bring 1 / distance^2 without the pdf that cancels it
+ * (fireflies; cornell_fog's ceiling light measured 2.6x the variance). */
 typedef struct SpmNeeLight {
   const __global SpmLight* light;
-  float3 y;
+  float3 y, yn;
   float prob;
   float delta, D;
+  bool cone;
 } SpmNeeLight;
 
 inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) {
@@ -127,12 +132,14 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
   float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 0);
   u.zw = stratify2(rng, SPM_RNG_MEDIUM_NEE, 0u);
   n.light = &s->lights[pick_light(s, u.x, &n.prob)];
+  n.cone = false;
+  n.yn = (float3)(0.0f);
   if (n.light->type == SPM_LIGHT_AREA) {
     float prim_prob;
     const __global SpmPrim* prim = pick_light_prim(s, n.light, u.y, &prim_prob);
-    float3 yn;
-    if (prim->kind == SPM_PRIM_SPHERE) n.y = load3(prim->p0);
-    else sample_prim_point(s, prim, u.z, u.w, &n.y, &yn);
+    n.cone = prim->kind == SPM_PRIM_SPHERE && !(s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS);
+    if (n.cone) n.y = load3(prim->p0);
+    else sample_prim_point(s, prim, u.z, u.w, &n.y, &n.yn);
   } else {
     n.y = load3(n.light->position);
   }
@@ -141,16 +148,21 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
   return n;
 }
 
-/* The light of n's light scattered at x towards -d: a point of it sampled
- * from x (sample_light_from; the uniforms of `lane`), the phase function
- * and the shadow ray's transmittance. */
+/* The light of n's light scattered at x towards -d: from n's point, or a
+ * point of its cone from x (the uniforms of `lane`), with the phase
+ * function and the shadow ray's transmittance. */
 inline float3 nee_arrival(const SpmScene* s, const SpmNeeLight* n, float3 x, float3 d, float g, int medium,
                           float step, SpmRng rng, uint lane) {
-  float3 u = rng4(rng, SPM_RNG_MEDIUM_NEE, lane).xyz;
-  u.yz = stratify2(rng, SPM_RNG_MEDIUM_NEE, lane);
-  float3 wi, p, pn;
+  float3 wi, p = n->y, pn = n->yn;
   float dist;
-  const float3 li = sample_light_from(s, n->light, n->prob, x, u, &wi, &dist, &p, &pn);
+  float3 li;
+  if (n->cone) {
+    float3 u = rng4(rng, SPM_RNG_MEDIUM_NEE, lane).xyz;
+    u.yz = stratify2(rng, SPM_RNG_MEDIUM_NEE, lane);
+    li = sample_light_from(s, n->light, n->prob, x, u, &wi, &dist, &p, &pn);
+  } else {
+    li = light_incident(n->light, x, n->y, n->yn, n->prob, &wi, &dist);
+  }
   if (max_comp(li) <= 0.0f) return (float3)(0.0f);
   /* Stop short of an area light's own surface; point lights have none. */
   const float reach = dot(pn, pn) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
