@@ -452,6 +452,15 @@ TEST(WallImages, MirrorRecordsNearAWallOnly) {
   }
 }
 
+// A medium that neither absorbs nor attenuates: sigma_t 0, albedo 1,
+// isotropic.
+cl::Buffer clear_medium(spm::Device& dev) {
+  SpmMedium clear{};
+  clear.albedo[0] = clear.albedo[1] = clear.albedo[2] = 1.0f;
+  clear.phase = SPM_PHASE_ISOTROPIC;
+  return dev.upload("media", std::vector<SpmMedium>{clear});
+}
+
 // Records spread evenly over the slab 0 < z < 4 above the wall, each of flux
 // phi, in a medium that neither absorbs nor attenuates (sigma_t 0, albedo
 // 1, isotropic): the beam radiance estimate along a segment of length L is
@@ -505,10 +514,7 @@ TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
     dirs[i] = {{rays[i].d.x, rays[i].d.y, rays[i].d.z, rays[i].t1}};
   }
   auto& dev = spm::test::device();
-  SpmMedium clear{};
-  clear.albedo[0] = clear.albedo[1] = clear.albedo[2] = 1.0f;
-  clear.phase = SPM_PHASE_ISOTROPIC;
-  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{clear});
+  const cl::Buffer media = clear_medium(dev);
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
   BeamTestSettings t;
   t.radius = radius;
@@ -583,10 +589,7 @@ TEST(BeamEstimate, WallImagesKeepEachSideOfASheetToItself) {
       dirs.push_back({{1.0f, 0.0f, 0.0f, 14.0f}});
     }
   auto& dev = spm::test::device();
-  SpmMedium clear{};
-  clear.albedo[0] = clear.albedo[1] = clear.albedo[2] = 1.0f;
-  clear.phase = SPM_PHASE_ISOTROPIC;
-  const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{clear});
+  const cl::Buffer media = clear_medium(dev);
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
   BeamTestSettings t;
   t.radius = radius;
