@@ -137,7 +137,7 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
   if (n.light->type == SPM_LIGHT_AREA) {
     float prim_prob;
     const __global SpmPrim* prim = pick_light_prim(s, n.light, u.y, &prim_prob);
-    n.cone = prim->kind == SPM_PRIM_SPHERE && !(s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS);
+    n.cone = cone_sampled(s, prim);
     if (n.cone) n.y = load3(prim->p0);
     else sample_prim_point(s, prim, u.z, u.w, &n.y, &n.yn);
   } else {

@@ -51,6 +51,12 @@ inline void sample_prim_point(const SpmScene* s, const __global SpmPrim* prim, f
   if (s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS) *n = -*n;
 }
 
+/* Whether sample_light_from samples primitive `prim` of an area light by
+ * the cone it subtends: a sphere that emits outwards. */
+inline bool cone_sampled(const SpmScene* s, const __global SpmPrim* prim) {
+  return prim->kind == SPM_PRIM_SPHERE && !(s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS);
+}
+
 /* Uniform point on an area light's surface (pdf 1/area) with its normal on the
  * emitting side. */
 inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* l, float3 u, float3* p,
@@ -59,22 +65,9 @@ inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* 
   sample_prim_point(s, pick_light_prim(s, l, u.x, &prob), u.y, u.z, p, n);
 }
 
-/* A point on a light picked by power (METHOD.md 2): its position and, for
- * an area light, its normal on the emitting side (0 for point and spot
- * lights); *prob is the light's pick probability. */
-inline const __global SpmLight* sample_light_point(const SpmScene* s, float4 u, float3* p, float3* n, float* prob) {
-  const __global SpmLight* l = &s->lights[pick_light(s, u.x, prob)];
-  if (l->type == SPM_LIGHT_AREA) {
-    sample_area_light_point(s, l, u.yzw, p, n);
-  } else {
-    *p = load3(l->position);
-    *n = (float3)(0.0f);
-  }
-  return l;
-}
-
-/* The radiance that light point p (normal n, from sample_light_point with
- * pick probability prob) sends to x, divided by the sampling pdf (per unit
+/* The radiance that light point p (normal n on the emitting side, 0 for
+ * point and spot lights) of light l, picked with probability prob and
+ * sampled uniformly by area, sends to x, divided by the sampling pdf (per unit
  * solid angle at x, cosine at x not included), or 0; *wi and *dist give
  * the shadow ray. */
 inline float3 light_incident(const __global SpmLight* l, float3 x, float3 p, float3 n, float prob, float3* wi,
@@ -113,8 +106,7 @@ inline float3 sample_light_from(const SpmScene* s, const __global SpmLight* l, f
     const float R = prim->p1[0];
     const float3 to = c - x;
     const float dc2 = dot(to, to);
-    if (prim->kind == SPM_PRIM_SPHERE && !(s->shapes[prim->shape].flags & SPM_SHAPE_FLIP_NORMALS) &&
-        dc2 > 1.0001f * R * R) {
+    if (cone_sampled(s, prim) && dc2 > 1.0001f * R * R) {
       /* 1 - cos(theta_max) from sin^2, so that a small cone keeps its
        * precision; the direction's 1 - cos(theta) likewise. */
       const float sin2_max = R * R / dc2;
