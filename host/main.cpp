@@ -326,7 +326,7 @@ int main(int argc, char** argv) {
   render->add_option("--emission-chains", r.emission_chains,
                      "Camera rays per sample that bring the emission seen in pixels that see a mirror or glass: a "
                      "light seen through glass is an image far smaller than a pixel (integrator "
-                     "'emission_chains'); 0: each sample's own path; default 16")
+                     "'emission_chains'); 0: each sample's own path; default 64")
       ->check(CLI::Range(0, 1024));
   render->add_option("--volume-every", r.volume_every,
                      "One camera sample in this many per pixel and pass adds the camera segments' volume estimate, "

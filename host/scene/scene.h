@@ -133,7 +133,7 @@ struct IntegratorSettings {
   // Camera rays per sample that bring the emission seen in pixels whose
   // corners see a mirror or glass (spm_gather.cl, emission_chains); 0: each
   // sample's path brings it, everywhere.
-  int emission_chains = 16;
+  int emission_chains = 64;
   // One camera sample in volume_every per pixel and pass adds the camera
   // segments' volume estimate, weighted to stand for the others: the
   // estimate is the same pass's records for every sample of a pixel, and
