@@ -175,8 +175,8 @@ int cmd_render(const RenderArgs& a) {
       const auto src = [](bool given) { return given ? "" : " (derived)"; };
       std::fprintf(stderr,
                    "spm: rendering %s at %dx%d, %s x %d spp on %s%s\n"
-                   "spm: streams %d%s x associated %d%s, radius %.6g%s, stream width %.6g%s, volume radius %.6g%s, "
-                   "max_depth %d, rr_depth %d, max_bounces %d\n",
+                   "spm: streams %d%s x associated %d%s, radius %.6g%s, stream width %.6g%s, volume radius %.6g%s "
+                   "(caustic records %.6g), max_depth %d, rr_depth %d, max_bounces %d\n",
                    a.scene.c_str(), settings.width, settings.height,
                    timed ? ("passes for " + std::to_string(in.time) + " s").c_str()
                          : (std::to_string(u.passes) + " pass(es)").c_str(),
@@ -184,12 +184,13 @@ int cmd_render(const RenderArgs& a) {
                    cluster.size() > 1 ? (" (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)").c_str() : "",
                    u.streams, src(in.streams > 0 && u.streams == in.streams), u.associated, src(in.associated > 0),
                    u.radius, src(in.radius > 0), u.stream_width, src(in.stream_width > 0), u.volume_radius,
-                   src(in.volume_radius > 0), in.max_depth, in.rr_depth, in.max_bounces);
+                   src(in.volume_radius > 0), u.caustic_volume_radius, in.max_depth, in.rr_depth, in.max_bounces);
       used_json = {{"streams", u.streams},
                    {"associated", u.associated},
                    {"radius", u.radius},
                    {"stream_width", u.stream_width},
                    {"volume_radius", u.volume_radius},
+                   {"caustic_volume_radius", u.caustic_volume_radius},
                    {"spp_per_pass", u.spp},
                    {"passes", u.passes},
                    {"max_depth", in.max_depth},
@@ -341,8 +342,9 @@ int main(int argc, char** argv) {
   render->add_option("--volume-radius", r.volume_radius,
                      "Kernel radius of the camera segments' volume estimate, first pass, shrinking as the radius "
                      "does; gather rays read the records with the radius when it is smaller (integrator "
-                     "'volume_radius'); default: 1.5 radii where every medium is homogeneous, with bre and "
-                     "--direct nee, else the radius");
+                     "'volume_radius'); default: 3 radii where every medium is homogeneous, with bre and "
+                     "--direct nee, else the radius. There, records of light that glass or a mirror focused "
+                     "(caustic records) keep 1.5 radii, or the volume radius where that is smaller");
   render->add_option("--alpha", r.alpha,
                      "Radius reduction per pass: r_{k+1}^2 = r_k^2 (k + alpha) / (k + 1) (integrator 'alpha'); default 0.9");
   render->add_option("--time", r.time,

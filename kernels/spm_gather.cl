@@ -28,6 +28,8 @@ typedef struct SpmMaps {
   const __global SpmVolumeRecord* volume;
   SpmGrid gather_grid; /* the gather rays' grid of the same records (map_grids.h) */
   const __global uint* gather_items;
+  SpmGrid volume_caustic_grid; /* the caustic ones among them (map_grids.h) */
+  const __global uint* volume_caustic_items;
   SpmGrid outer_grid; /* the volume records outside volume_core (map_grids.h) */
   const __global uint* outer_items;
   const __global SpmVolumeRecord* outer;
@@ -42,6 +44,7 @@ typedef struct SpmMaps {
   float radius;
   float volume_radius; /* the volume records' kernel radius (integrator volume_radius) */
   float gather_volume_radius; /* the gather rays' (SpmGatherParams) */
+  float caustic_volume_radius; /* the camera's for caustic volume records (SpmGatherParams) */
   float beam_radius;
   uint density_kernel;
   uint estimator;
@@ -248,20 +251,28 @@ inline float3 medium_nee(const SpmScene* s, int medium, float3 o, float3 d, floa
 
 /* The beam radiance estimate over the volume records along [t0, t1]: the
  * records near the scene and those beyond it are in two grids, each record
- * in one (host/spm/map_grids.h), so the estimate is the sum of both. A
- * gather ray (`gather`) reads them with the gather rays' radius: where it
- * is below the volume radius, through the grid built for it (a grid of
- * radius R serves any radius up to R, but walks cells of 2R). */
+ * in one (host/spm/map_grids.h), so the estimate is the sum of both; near
+ * the scene the caustic records (SPM_RECORD_CAUSTIC) have a grid of their
+ * own, of the caustic volume radius, and the volume grid holds the rest.
+ * A gather ray (`gather`) reads them with the gather rays' radius: where it
+ * is below the volume radius, through the grid built for it over all of
+ * them (a grid of radius R serves any radius up to R, but walks cells of
+ * 2R). */
 inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o, float3 d,
                                float t0, float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab,
                                uint* tests) {
   const bool own = gather && maps->gather_volume_radius < maps->volume_radius;
   const float r = gather ? maps->gather_volume_radius : maps->volume_radius;
-  return beam_estimate(own ? &maps->gather_grid : &maps->volume_grid, own ? maps->gather_items : maps->volume_items,
-                       maps->volume, s->md.media, s->patches, medium, o, d, t0, t1, r, maps->density_kernel,
-                       maps->estimator, min_depth, max_depth, tab, tests) +
-         beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, s->patches, medium, o, d, t0,
-                       t1, r, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
+  const float3 sum =
+      beam_estimate(own ? &maps->gather_grid : &maps->volume_grid, own ? maps->gather_items : maps->volume_items,
+                    maps->volume, s->md.media, s->patches, medium, o, d, t0, t1, r, maps->density_kernel,
+                    maps->estimator, min_depth, max_depth, tab, tests) +
+      beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, s->patches, medium, o, d, t0, t1,
+                    r, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
+  if (own) return sum;
+  return sum + beam_estimate(&maps->volume_caustic_grid, maps->volume_caustic_items, maps->volume, s->md.media,
+                             s->patches, medium, o, d, t0, t1, fmin(r, maps->caustic_volume_radius),
+                             maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
 }
 
 /* The volume estimate (records or stream beams) along [t0, t1] in a
@@ -673,6 +684,8 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.volume = volume;
   maps.gather_grid = make_grid(gather_info, gather_start, gather_pos);
   maps.gather_items = gather_items;
+  maps.volume_caustic_grid = make_grid(volume_caustic_info, volume_caustic_start, volume_caustic_pos);
+  maps.volume_caustic_items = volume_caustic_items;
   maps.outer_grid = make_grid(outer_info, outer_start, outer_pos);
   maps.outer_items = outer_items;
   maps.outer = outer;
@@ -689,6 +702,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   maps.radius = params.radius;
   maps.volume_radius = params.volume_radius;
   maps.gather_volume_radius = params.gather_volume_radius;
+  maps.caustic_volume_radius = params.caustic_volume_radius;
   maps.beam_radius = params.beam_radius;
   maps.density_kernel = params.density_kernel;
   maps.estimator = params.estimator;

@@ -19,7 +19,7 @@
   S(SpmLight, 112)            \
   S(SpmLightPrim, 8)          \
   S(SpmCamera, 96)            \
-  S(SpmVolumeRecord, 48)      \
+  S(SpmVolumeRecord, 64)      \
   S(SpmBeam, 64)              \
   S(SpmSurfaceRecord, 64)     \
   S(SpmStreamParams, 64)      \
@@ -53,6 +53,7 @@
   F(SpmCamera, filter_stddev) F(SpmCamera, filter_radius)                                       \
   F(SpmVolumeRecord, position) F(SpmVolumeRecord, stream) F(SpmVolumeRecord, direction)         \
   F(SpmVolumeRecord, depth) F(SpmVolumeRecord, flux) F(SpmVolumeRecord, medium)                \
+  F(SpmVolumeRecord, flags)                                                                     \
   F(SpmBeam, origin) F(SpmBeam, stream) F(SpmBeam, direction) F(SpmBeam, depth) F(SpmBeam, flux) \
   F(SpmBeam, medium) F(SpmBeam, length)                                                         \
   F(SpmSurfaceRecord, position) F(SpmSurfaceRecord, stream) F(SpmSurfaceRecord, direction)      \
@@ -70,6 +71,7 @@
   F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
   F(SpmGatherParams, emission_chains) F(SpmGatherParams, volume_samples)                         \
   F(SpmGatherParams, volume_radius) F(SpmGatherParams, gather_volume_radius)                     \
+  F(SpmGatherParams, caustic_volume_radius)                                                     \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

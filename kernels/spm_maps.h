@@ -15,6 +15,10 @@
   X(uint, gather_start)        /* their radius is below the volume radius): cell starts, */    \
   X(float4, gather_pos)        /* item positions and depths, */                                \
   X(uint, gather_items)        /* record indices */                                            \
+  X(SpmGridInfo, volume_caustic_info) /* the caustic volume records' sphere grid, */       \
+  X(uint, volume_caustic_start)       /* of the caustic volume radius: cell starts, */     \
+  X(float4, volume_caustic_pos)       /* item positions and depths, indices into */        \
+  X(uint, volume_caustic_items)       /* `volume` (map_grids.h) */                         \
   X(SpmGridInfo, outer_info)   /* the volume records outside volume_core: their own grid */  \
   X(uint, outer_start)         /* its cells' first items (CSR) */                            \
   X(float4, outer_pos)         /* per item: the record's position; w: its depth */           \

@@ -249,6 +249,11 @@ typedef struct SpmVolumeRecord {
   spm_uint depth;  /* path vertices from the light up to this event (METHOD.md 10) */
   spm_float flux[3]; /* n * phi: the whole stream's flux (RGB) */
   spm_int medium;    /* the medium the event happened in */
+  /* SPM_RECORD_CAUSTIC: the stream's last event before this one was
+   * specular, so the record is light focused by glass or a mirror, which
+   * the camera reads with the narrower caustic volume radius (map_grids.h) */
+  spm_uint flags;
+  spm_uint pad[3];
 } SpmVolumeRecord;
 
 /* Stream beam (METHOD.md 11): one in-medium flight segment of a stream's
@@ -268,8 +273,9 @@ typedef struct SpmBeam {
 
 /* Record flags. */
 #define SPM_RECORD_HAD_EVENT 1u /* the stream scattered or bounced before (METHOD.md 5) */
-#define SPM_RECORD_CAUSTIC 2u   /* the stream's last event before this one was specular: light a final
-                                 * gather ray cannot bring, read at the camera's own vertex (spm_gather.cl) */
+#define SPM_RECORD_CAUSTIC 2u   /* the stream's last event before this one was specular: on a surface, light
+                                 * a final gather ray cannot bring, read at the camera's own vertex
+                                 * (spm_gather.cl); in a medium, focused light, read with a narrower kernel */
 
 /* A volume record's `stream` in the gather, once its stream id is no longer
  * read (host/spm/wall_images.h): with SPM_RECORD_WALL set, the record lies
@@ -345,7 +351,10 @@ typedef struct SpmGatherParams {
    * through a grid of their own (gather_info, map_grids.h); else the
    * volume radius, through the volume grid. */
   spm_float gather_volume_radius;
-  spm_uint pad[1];
+  /* The camera's kernel radius for the volume records flagged
+   * SPM_RECORD_CAUSTIC, read through a grid of their own (volume_caustic_info,
+   * map_grids.h); at most the volume radius. */
+  spm_float caustic_volume_radius;
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -453,6 +453,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         r.stream = id;
         r.depth = k;
         r.medium = medium;
+        r.flags = after_specular ? SPM_RECORD_CAUSTIC : 0u;
         out.volume.push_back(r);
         out.collapsed_medium_events += out.collapsed;
         depth = k;

@@ -325,7 +325,7 @@ TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
   reach.hi = glm::vec3(1.0f + radius);
   spm::MapParts parts;
   parts.volume = records;
-  const spm::MapGridData data = spm::map_grid_data(parts, radius, radius, radius, false, false, reach);
+  const spm::MapGridData data = spm::map_grid_data(parts, radius, radius, radius, radius, false, false, reach);
   ASSERT_EQ(data.volume_records.size() + data.outer_records.size(), records.size());
   // The core: the bounds grown to cbrt(30,000) = 31 cells of 2r, +-1.55.
   const spm::QueryBounds fine = spm::volume_core(reach, records.size(), radius);

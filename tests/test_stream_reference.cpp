@@ -170,9 +170,9 @@ std::string branch_difference(const StreamView& a, const StreamView& b) {
     why << "surface records " << a.surface_count << " vs " << b.surface_count << "; ";
   for (size_t i = 0; i < std::min(a.volume_count, b.volume_count); ++i) {
     const SpmVolumeRecord &x = a.volume[i], &y = b.volume[i];
-    if (x.stream != y.stream || x.depth != y.depth || x.medium != y.medium) {
-      why << "volume record " << i << ": depth " << x.depth << " medium " << x.medium << " vs depth " << y.depth
-          << " medium " << y.medium << "; ";
+    if (x.stream != y.stream || x.depth != y.depth || x.medium != y.medium || x.flags != y.flags) {
+      why << "volume record " << i << ": depth " << x.depth << " medium " << x.medium << " flags " << x.flags
+          << " vs depth " << y.depth << " medium " << y.medium << " flags " << y.flags << "; ";
       break;
     }
   }

@@ -20,13 +20,29 @@ int derived_associated(const IntegratorSettings& in) {
   return in.associated > 0 ? in.associated : kDefaultAssociated;
 }
 
+namespace {
+
+// Whether the volume estimate may take a kernel wider than the radius
+// (kVolumeRadiusFactor).
+bool wide_volume_kernel(const Scene& scene) {
+  const IntegratorSettings& in = scene.integrator;
+  const bool homogeneous = std::none_of(scene.media.begin(), scene.media.end(),
+                                        [](const Medium& m) { return m.heterogeneous(); });
+  return homogeneous && in.estimator == "bre" && in.direct == "nee";
+}
+
+}  // namespace
+
 float derived_volume_radius(const Scene& scene) {
   const IntegratorSettings& in = scene.integrator;
   if (in.volume_radius > 0.0f) return in.volume_radius;
-  const bool homogeneous = std::none_of(scene.media.begin(), scene.media.end(),
-                                        [](const Medium& m) { return m.heterogeneous(); });
-  const bool wide = homogeneous && in.estimator == "bre" && in.direct == "nee";
-  return wide ? kVolumeRadiusFactor * in.radius : in.radius;
+  return wide_volume_kernel(scene) ? kVolumeRadiusFactor * in.radius : in.radius;
+}
+
+float derived_caustic_volume_radius(const Scene& scene) {
+  const float volume_radius = derived_volume_radius(scene);
+  if (!wide_volume_kernel(scene)) return volume_radius;
+  return std::min(volume_radius, kCausticVolumeRadiusFactor * scene.integrator.radius);
 }
 
 int samples_per_pass(const Scene& scene, int width, int height) {

@@ -97,6 +97,7 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
         return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
       })),
       volume_radius0_(derived_volume_radius(scene)),
+      caustic_volume_radius0_(derived_caustic_volume_radius(scene)),
       walls_(tables, volume_radius0_),
       wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
@@ -159,8 +160,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     part.surface = maps.surface.data() + first;
     part.surface_count = maps.surface.size() * (k + 1) / parts - first;
     MapGridData data =
-        map_grid_data(std::move(part), radius, volume_radius, beam_radius, skip_direct, final_gather_, reach,
-                      wall_images_ ? &walls_ : nullptr);
+        map_grid_data(std::move(part), radius, volume_radius, caustic_volume_radius(radius), beam_radius,
+                      skip_direct, final_gather_, reach, wall_images_ ? &walls_ : nullptr);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
@@ -193,6 +194,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.radius = radius;
     params.volume_radius = volume_radius;
     params.gather_volume_radius = final_gather_ ? std::min(radius, volume_radius) : volume_radius;
+    params.caustic_volume_radius = caustic_volume_radius(radius);
     params.beam_radius = beam_radius;
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;

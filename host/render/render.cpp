@@ -202,7 +202,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   if (s.announce) {
     s.announce(RenderUsed{derived_streams(scene.integrator), derived_associated(scene.integrator),
                           scene.integrator.radius, scene.integrator.stream_width, derived_volume_radius(scene),
-                          s.spp, s.passes, pilot.seconds});
+                          derived_caustic_volume_radius(scene), s.spp, s.passes, pilot.seconds});
   }
   const IntegratorSettings& in = scene.integrator;
   const SceneTables tables = flatten_scene(scene, s.width, s.height);

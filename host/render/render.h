@@ -22,6 +22,7 @@ namespace spm {
 struct RenderUsed {
   int streams = 0, associated = 0;
   float radius = 0.0f, stream_width = 0.0f, volume_radius = 0.0f;  // of the first pass
+  float caustic_volume_radius = 0.0f;  // of the first pass (derived_caustic_volume_radius)
   int spp = 0;                        // per pass
   int passes = 0;                     // 0: as many as the time budget allows
   double pilot_seconds = 0.0;         // the scale pilot (0: none ran)

@@ -37,6 +37,20 @@ std::vector<cl_float4> per_item(const RecordGrid& grid, const std::vector<Record
   return out;
 }
 
+// The sphere grid of radius r over records[first, last) and its items'
+// positions; the items index `records`.
+void sphere_grid_of(const std::vector<SpmVolumeRecord>& records, size_t first, size_t last, float r,
+                    RecordGrid& grid, std::vector<cl_float4>& pos) {
+  std::vector<glm::vec3> centres;
+  centres.reserve(last - first);
+  for (size_t i = first; i < last; ++i) {
+    centres.emplace_back(records[i].position[0], records[i].position[1], records[i].position[2]);
+  }
+  grid = build_sphere_grid(centres, r);
+  for (uint32_t& item : grid.items) item += uint32_t(first);
+  pos = volume_item_positions(grid, records);
+}
+
 }  // namespace
 
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
@@ -123,6 +137,8 @@ size_t MapGridData::bytes() const {
   return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
          vector_bytes(volume.items) + vector_bytes(volume_records) + sizeof(SpmGridInfo) +
          vector_bytes(gather.cell_start) + vector_bytes(gather_pos) + vector_bytes(gather.items) + sizeof(SpmGridInfo) +
+         vector_bytes(volume_caustic.cell_start) + vector_bytes(volume_caustic_pos) +
+         vector_bytes(volume_caustic.items) + sizeof(SpmGridInfo) +
          vector_bytes(outer.cell_start) + vector_bytes(outer_pos) + vector_bytes(outer.items) +
          vector_bytes(outer_records) + vector_bytes(surface.cell_start) +
          vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
@@ -130,8 +146,9 @@ size_t MapGridData::bytes() const {
          vector_bytes(caustic_pos) + vector_bytes(caustic_flux);
 }
 
-MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
-                          bool final_gather, const QueryBounds& reach, const WallImages* walls) {
+MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float caustic_volume_radius,
+                          float beam_radius, bool skip_direct, bool final_gather, const QueryBounds& reach,
+                          const WallImages* walls) {
   MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
@@ -160,13 +177,22 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
                                          [&](const SpmVolumeRecord& r) { return core.contains(r.position); });
   outer.assign(far, volume.end());
   volume.erase(far, volume.end());
+  // The caustic records last, so that the volume grid's items index the
+  // records before them as they are and the caustic grid's need an offset.
+  size_t focused = volume.size();
+  if (caustic_volume_radius < volume_radius) {
+    focused = size_t(std::stable_partition(volume.begin(), volume.end(),
+                                           [](const SpmVolumeRecord& r) { return !(r.flags & SPM_RECORD_CAUSTIC); }) -
+                     volume.begin());
+  }
   // The volume grid on a thread of its own, the others here: they only read
   // the records, and the device waits for all of them (caustic_area's pass:
   // 15 ms for the volume grid and its items against 25 ms for the rest).
   std::future<void> volume_part = std::async(std::launch::async, [&] {
-    d.volume = volume_grid(volume, volume_radius);
-    d.volume_pos = volume_item_positions(d.volume, volume);
+    sphere_grid_of(volume, 0, focused, volume_radius, d.volume, d.volume_pos);
   });
+  sphere_grid_of(volume, focused, volume.size(), std::min(caustic_volume_radius, volume_radius), d.volume_caustic,
+                 d.volume_caustic_pos);
   if (final_gather && radius < volume_radius) {
     d.gather = volume_grid(volume, radius);
     d.gather_pos = volume_item_positions(d.gather, volume);
@@ -201,6 +227,10 @@ MapGrids::MapGrids(Device& device, const MapGridData& d)
       gather_start(device.upload("gather_start", d.gather.cell_start)),
       gather_pos(device.upload("gather_pos", d.gather_pos)),
       gather_items(device.upload("gather_items", d.gather.items)),
+      volume_caustic_info(device.upload("volume_caustic_info", std::vector<SpmGridInfo>{d.volume_caustic.info})),
+      volume_caustic_start(device.upload("volume_caustic_start", d.volume_caustic.cell_start)),
+      volume_caustic_pos(device.upload("volume_caustic_pos", d.volume_caustic_pos)),
+      volume_caustic_items(device.upload("volume_caustic_items", d.volume_caustic.items)),
       outer_info(device.upload("outer_info", std::vector<SpmGridInfo>{d.outer.info})),
       outer_start(device.upload("outer_start", d.outer.cell_start)),
       outer_pos(device.upload("outer_pos", d.outer_pos)),

@@ -72,8 +72,9 @@ std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size
 // map's sphere grid, the surface map's point grid and the stream beams'
 // capsule grid with their per-item arrays, as MapGrids uploads them.
 struct MapGridData {
-  RecordGrid volume, gather, outer, surface, beam, caustic;
-  std::vector<cl_float4> volume_pos, gather_pos, outer_pos, surface_pos, surface_flux, caustic_pos, caustic_flux;
+  RecordGrid volume, gather, volume_caustic, outer, surface, beam, caustic;
+  std::vector<cl_float4> volume_pos, gather_pos, volume_caustic_pos, outer_pos, surface_pos, surface_flux, caustic_pos,
+      caustic_flux;
   std::vector<SpmVolumeRecord> volume_records, outer_records;
   std::vector<SpmBeam> beams;
   size_t bytes() const;  // device memory of the upload
@@ -107,11 +108,18 @@ struct MapParts {
 // (`gather`; empty otherwise): one of `volume_radius` would make them walk
 // cells of 2 volume_radius, and their estimate is averaged over the
 // hemisphere, so the smaller radius costs them little variance (README
-// "A wider volume kernel by default"). With `walls`, the volume records
+// "A wider volume kernel by default"). With a `caustic_volume_radius`
+// below the volume radius, the records in the core flagged
+// SPM_RECORD_CAUSTIC, light that glass or a mirror focused, are listed in
+// a sphere grid of that radius (`volume_caustic`, its items indices into
+// the core's records, which end with them) instead of the volume grid:
+// the light the rest carries, scattered after a diffuse event, is smooth
+// enough for a kernel twice as wide, while a focused cone is not (README
+// "A kernel for focused light"). The gather rays' grid lists them all. With `walls`, the volume records
 // near them get their mirror images (WallImages::add).
-MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float beam_radius, bool skip_direct,
-                          bool final_gather = false, const QueryBounds& reach = {},
-                          const WallImages* walls = nullptr);
+MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float caustic_volume_radius,
+                          float beam_radius, bool skip_direct, bool final_gather = false,
+                          const QueryBounds& reach = {}, const WallImages* walls = nullptr);
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound
 // under their names after the gather's own arguments.

@@ -96,6 +96,8 @@ inline uint medium_event(const SpmScene* sc, const SpmStreamParams* p, SpmStream
       r->stream = st.id[s];
       r->depth = depth;
       r->medium = st.medium[s];
+      r->flags = (st.flags[s] & SPM_STREAM_AFTER_SPECULAR) ? SPM_RECORD_CAUSTIC : 0u;
+      r->pad[0] = r->pad[1] = r->pad[2] = 0u;
     } else {
       atomic_or(&counts[SPM_COUNT_ERRORS], SPM_ERROR_VOLUME_OVERFLOW);
     }
