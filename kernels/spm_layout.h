@@ -23,7 +23,7 @@
   S(SpmBeam, 64)              \
   S(SpmSurfaceRecord, 64)     \
   S(SpmStreamParams, 64)      \
-  S(SpmGatherParams, 80)      \
+  S(SpmGatherParams, 96)      \
   S(SpmGridInfo, 32)
 
 /* F(struct, field) */
@@ -45,7 +45,7 @@
   F(SpmLight, emission) F(SpmLight, type) F(SpmLight, position) F(SpmLight, power)              \
   F(SpmLight, axis_x) F(SpmLight, cos_cutoff) F(SpmLight, axis_y) F(SpmLight, cos_beam)         \
   F(SpmLight, axis_z) F(SpmLight, cutoff) F(SpmLight, prim_begin) F(SpmLight, prim_count)       \
-  F(SpmLight, area) F(SpmLight, beam_width) F(SpmLight, medium)                                 \
+  F(SpmLight, area) F(SpmLight, beam_width) F(SpmLight, medium) F(SpmLight, aim)               \
   F(SpmLightPrim, prim) F(SpmLightPrim, cdf)                                                    \
   F(SpmCamera, origin) F(SpmCamera, tan_half_x) F(SpmCamera, axis_x) F(SpmCamera, tan_half_y)   \
   F(SpmCamera, axis_y) F(SpmCamera, near_clip) F(SpmCamera, axis_z) F(SpmCamera, far_clip)      \
@@ -71,7 +71,7 @@
   F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
   F(SpmGatherParams, emission_chains) F(SpmGatherParams, volume_samples)                         \
   F(SpmGatherParams, volume_radius) F(SpmGatherParams, gather_volume_radius)                     \
-  F(SpmGatherParams, caustic_volume_radius)                                                     \
+  F(SpmGatherParams, caustic_volume_radius) F(SpmGatherParams, gather_aim)                      \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
 
 #endif

@@ -191,7 +191,7 @@ typedef struct SpmGridVolume {
 typedef struct SpmLight {
   spm_float emission[3]; /* area: radiance; point and spot: intensity */
   spm_uint type;
-  spm_float position[3]; /* point, spot */
+  spm_float position[3]; /* point, spot; area: the centroid of its surface, where final-gather rays aim */
   spm_float power;       /* mean over RGB of the emitted power (METHOD.md 2) */
   spm_float axis_x[3];   /* spot frame: light shines along +axis_z */
   spm_float cos_cutoff;
@@ -204,7 +204,11 @@ typedef struct SpmLight {
   spm_float area;        /* area: total surface area */
   spm_float beam_width;  /* spot: radians */
   spm_int medium;        /* medium the light sits in (area: shape exterior) */
-  spm_uint pad[3];
+  /* The probability that a final-gather ray aimed at the lights aims at
+   * this one (spm_gather.cl, gather_direction): its share of the power of
+   * the small lights in a medium (host/scene/gpu_scene.h), 0 for others. */
+  spm_float aim;
+  spm_uint pad[2];
 } SpmLight;
 
 /* Area-light primitive table entry: cumulative area fraction, for sampling a
@@ -355,6 +359,10 @@ typedef struct SpmGatherParams {
    * SPM_RECORD_CAUSTIC, read through a grid of their own (volume_caustic_info,
    * map_grids.h); at most the volume radius. */
   spm_float caustic_volume_radius;
+  /* The share of final-gather rays aimed at the lights whose `aim` is
+   * above 0 (spm_gather.cl, gather_direction); 0: all cosine-weighted. */
+  spm_float gather_aim;
+  spm_uint pad[3];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -13,6 +13,7 @@
 
 #include "render/render.h"
 #include "render/terms.h"
+#include "scene/gpu_scene.h"
 #include "scene/loader.h"
 #include "test_support.h"
 
@@ -170,5 +171,44 @@ TEST(FinalGather, TheTermsAddUpToTheWholeImage) {
 }
 
 TEST(FinalGather, ShortGatherRaysGoOnAndAgreeOnTheMean) { expect_same_mean(near_scene()); }
+
+// Final-gather rays aim at the lights in a medium no larger than
+// kAimedLightSize of the scene's diagonal (SpmLight::aim, each light's share
+// of those lights' power), and at no other: far_scene's light (half-edge 5,
+// 2.5% of its diagonal) is aimed at, so AgreesWithTheDirectLookupOnTheMean
+// checks the aimed rays' weights; so is caustic_area's sphere light, while
+// cornell_fog's and the fog box's lights are too large, and a light out of
+// any medium lights none around it.
+TEST(FinalGather, AimsAtSmallLightsInAMedium) {
+  const auto aims = [](const spm::Scene& scene) {
+    std::vector<float> out;
+    for (const SpmLight& l : spm::flatten_scene(scene, 8, 8).lights) out.push_back(l.aim);
+    return out;
+  };
+  EXPECT_EQ(aims(spm::load_scene_string(far_scene(), "far.xml")), std::vector<float>{1.0f});
+  EXPECT_EQ(aims(spm::load_scene(SPM_SCENES_DIR "/caustic_area.xml", {})), std::vector<float>{1.0f});
+  EXPECT_EQ(aims(spm::load_scene(SPM_SCENES_DIR "/cornell_fog.xml", {})), std::vector<float>{0.0f});
+  EXPECT_EQ(aims(spm::load_scene(SPM_SCENES_DIR "/fog_box.xml", {})), std::vector<float>{0.0f});
+  // A second light, as small, three times as bright, and a large one.
+  const std::string two = planes_scene(50.0f, 40.0f, 50.0f, 5.0f, 0.0f, 49.0f, R"(  <shape type="rectangle">
+    <transform name="to_world"><scale value="5"/><rotate x="1" angle="90"/><translate x="30" y="49"/></transform>
+    <emitter type="area"><rgb name="radiance" value="120"/></emitter>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="30"/><rotate x="1" angle="90"/><translate x="-50" y="49.5"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+  </shape>
+)");
+  const std::vector<float> a = aims(spm::load_scene_string(two, "two.xml"));
+  ASSERT_EQ(a.size(), 3u);
+  EXPECT_NEAR(a[0], 0.25f, 1e-6f);
+  EXPECT_NEAR(a[1], 0.75f, 1e-6f);
+  EXPECT_EQ(a[2], 0.0f);
+  // Without the fog.
+  std::string clear = far_scene();
+  const size_t fog = clear.find("<medium");
+  clear.erase(fog, clear.find("</medium>", fog) + 9 - fog);
+  EXPECT_EQ(aims(spm::load_scene_string(clear, "clear.xml")), std::vector<float>{0.0f});
+}
 
 }  // namespace

@@ -98,6 +98,8 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       })),
       volume_radius0_(derived_volume_radius(scene)),
       caustic_volume_radius0_(derived_caustic_volume_radius(scene)),
+      aimed_(final_gather_ && std::any_of(tables.lights.begin(), tables.lights.end(),
+                                          [](const SpmLight& l) { return l.aim > 0.0f; })),
       walls_(tables, volume_radius0_),
       wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
@@ -195,6 +197,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.volume_radius = volume_radius;
     params.gather_volume_radius = final_gather_ ? std::min(radius, volume_radius) : volume_radius;
     params.caustic_volume_radius = caustic_volume_radius(radius);
+    params.gather_aim = aimed_ ? kGatherAim : 0.0f;
     params.beam_radius = beam_radius;
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;

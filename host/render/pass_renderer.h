@@ -78,6 +78,8 @@ class PassRenderer {
   bool specular_;
   float volume_radius0_;  // the first pass's volume radius (derived_volume_radius)
   float caustic_volume_radius0_;  // and its caustic volume radius (derived_caustic_volume_radius)
+  // Whether final-gather rays aim at lights (SpmLight::aim, kGatherAim).
+  bool aimed_;
   // The caustic volume radius of the pass whose radius is `radius`: it shrinks as the radius does.
   float caustic_volume_radius(float radius) const { return caustic_volume_radius0_ * radius / scene_.integrator.radius; }
   // The walls the volume records are mirrored across (the bre estimate only).

@@ -33,6 +33,50 @@ double prim_area(const SpmPrim& p) {
   return p.kind == SPM_PRIM_SPHERE ? 4.0 * kPi * double(p.p1[0]) * double(p.p1[0]) : triangle_area(p);
 }
 
+// Half the diagonal of the bounding box of an area light's primitives.
+double light_size(const SceneTables& t, const SpmLight& l) {
+  if (l.type != SPM_LIGHT_AREA) return 0.0;
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (spm_uint k = l.prim_begin; k < l.prim_begin + l.prim_count; ++k) {
+    const SpmPrim& p = t.prims[t.light_prims[k].prim];
+    if (p.kind == SPM_PRIM_SPHERE) {
+      const glm::dvec3 c(p.p0[0], p.p0[1], p.p0[2]);
+      lo = glm::min(lo, c - double(p.p1[0]));
+      hi = glm::max(hi, c + double(p.p1[0]));
+    } else {
+      for (const float* v : {p.p0, p.p1, p.p2}) {
+        lo = glm::min(lo, glm::dvec3(v[0], v[1], v[2]));
+        hi = glm::max(hi, glm::dvec3(v[0], v[1], v[2]));
+      }
+    }
+  }
+  return 0.5 * glm::length(hi - lo);
+}
+
+// SpmLight::aim of every light: its share of the power of the small lights
+// in a medium (kAimedLightSize), 0 for the others.
+void aim_at_small_lights(SceneTables& t) {
+  double diagonal = 0.0;
+  if (!t.nodes.empty()) {
+    const SpmBvhNode& root = t.nodes[0];
+    diagonal = glm::length(glm::dvec3(root.hi[0] - root.lo[0], root.hi[1] - root.lo[1], root.hi[2] - root.lo[2]));
+  }
+  double total = 0.0;
+  for (const SpmLight& l : t.lights) {
+    if (l.medium >= 0 && light_size(t, l) <= kAimedLightSize * diagonal) total += l.power;
+  }
+  for (SpmLight& l : t.lights) {
+    const bool aimed = l.medium >= 0 && light_size(t, l) <= kAimedLightSize * diagonal;
+    l.aim = aimed ? float(double(l.power) / total) : 0.0f;
+  }
+}
+
+glm::dvec3 prim_centroid(const SpmPrim& p) {
+  const glm::dvec3 a(p.p0[0], p.p0[1], p.p0[2]);
+  if (p.kind == SPM_PRIM_SPHERE) return a;
+  return (a + glm::dvec3(p.p1[0], p.p1[1], p.p1[2]) + glm::dvec3(p.p2[0], p.p2[1], p.p2[2])) / 3.0;
+}
+
 // The rectangle that triangles a and b tile, when they do: they share two
 // corners d0 and d1 (its diagonal), by position, so that vertices split
 // for their normals or texture coordinates still match, and their other
@@ -344,7 +388,12 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       g.prim_begin = static_cast<spm_uint>(t.light_prims.size());
       g.prim_count = static_cast<spm_uint>(ids.size());
       double area = 0.0;
-      for (spm_uint id : ids) area += prim_area(t.prims[id]);
+      glm::dvec3 centroid(0.0);
+      for (spm_uint id : ids) {
+        area += prim_area(t.prims[id]);
+        centroid += prim_area(t.prims[id]) * prim_centroid(t.prims[id]);
+      }
+      if (area > 0.0) put3(g.position, glm::vec3(centroid / area));
       double acc = 0.0;
       for (size_t k = 0; k < ids.size(); ++k) {
         acc += prim_area(t.prims[ids[k]]);
@@ -369,6 +418,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
     total += g.power;
   }
   if (t.lights.empty()) throw InputError(scene.path, "scene has no light");
+  aim_at_small_lights(t);
   double acc = 0.0;
   for (size_t i = 0; i < powers.size(); ++i) {
     acc += powers[i];
