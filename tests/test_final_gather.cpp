@@ -19,6 +19,17 @@
 
 namespace {
 
+std::string num(float v) { return std::to_string(v); }
+
+// An area light: a square of half-edge `half` at (x, y, 0), facing down
+// (`down`) or up.
+std::string square_light(float half, bool down, float x, float y, float radiance) {
+  return "  <shape type=\"rectangle\">\n    <transform name=\"to_world\"><scale value=\"" + num(half) +
+         "\"/><rotate x=\"1\" angle=\"" + (down ? "90" : "-90") + "\"/><translate x=\"" + num(x) + "\" y=\"" + num(y) +
+         "\"/></transform>\n    <emitter type=\"area\"><rgb name=\"radiance\" value=\"" + num(radiance) +
+         "\"/></emitter>\n  </shape>\n";
+}
+
 // A floor and a ceiling `gap` apart, both white, a small area light (half
 // edge `light`, centred at x = light_x, y = light_y) under the ceiling
 // facing down, thin global fog (nested in the sensor) and a camera at height
@@ -26,7 +37,6 @@ namespace {
 // degrees; `extra`: more shapes.
 std::string planes_scene(float gap, float eye, float fov, float light, float light_x, float light_y,
                          const std::string& extra) {
-  auto f = [](float v) { return std::to_string(v); };
   return R"(<scene version="3.0.0">
   <integrator type="spm">
     <integer name="streams" value="4000"/>
@@ -34,8 +44,8 @@ std::string planes_scene(float gap, float eye, float fov, float light, float lig
     <float name="radius" value="3"/>
   </integrator>
   <sensor type="perspective">
-    <float name="fov" value=")" + f(fov) + R"("/>
-    <transform name="to_world"><lookat origin="0, )" + f(eye) + R"(, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+    <float name="fov" value=")" + num(fov) + R"("/>
+    <transform name="to_world"><lookat origin="0, )" + num(eye) + R"(, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
     <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
     <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film>
     <medium type="homogeneous"><float name="sigma_t" value="0.01"/><float name="albedo" value="0.8"/></medium>
@@ -46,15 +56,10 @@ std::string planes_scene(float gap, float eye, float fov, float light, float lig
     <ref id="white"/>
   </shape>
   <shape type="rectangle">
-    <transform name="to_world"><scale value="100"/><rotate x="1" angle="90"/><translate y=")" + f(gap) + R"("/></transform>
+    <transform name="to_world"><scale value="100"/><rotate x="1" angle="90"/><translate y=")" + num(gap) + R"("/></transform>
     <ref id="white"/>
   </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value=")" + f(light) + R"("/><rotate x="1" angle="90"/><translate x=")" +
-         f(light_x) + R"(" y=")" + f(light_y) + R"("/></transform>
-    <emitter type="area"><rgb name="radiance" value="40"/></emitter>
-  </shape>
-)" + extra + "</scene>";
+)" + square_light(light, true, light_x, light_y, 40.0f) + extra + "</scene>";
 }
 
 // Planes 50 apart with a glass sphere, the camera at 40: it sees the
@@ -127,11 +132,7 @@ TEST(FinalGather, TheTermsAddUpToTheWholeImage) {
     <float name="radius" value="5"/>
     <bsdf type="dielectric"/>
   </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="2"/><rotate x="1" angle="-90"/><translate x="-10" y="0.5"/></transform>
-    <emitter type="area"><rgb name="radiance" value="5"/></emitter>
-  </shape>
-)");
+)" + square_light(2.0f, false, -10.0f, 0.5f, 5.0f));
   for (bool final_gather : {true, false}) {
     spm::Scene scene = spm::load_scene_string(text, "terms.xml");
     scene.integrator.final_gather = final_gather;
@@ -190,15 +191,9 @@ TEST(FinalGather, AimsAtSmallLightsInAMedium) {
   EXPECT_EQ(aims(spm::load_scene(SPM_SCENES_DIR "/cornell_fog.xml", {})), std::vector<float>{0.0f});
   EXPECT_EQ(aims(spm::load_scene(SPM_SCENES_DIR "/fog_box.xml", {})), std::vector<float>{0.0f});
   // A second light, as small, three times as bright, and a large one.
-  const std::string two = planes_scene(50.0f, 40.0f, 50.0f, 5.0f, 0.0f, 49.0f, R"(  <shape type="rectangle">
-    <transform name="to_world"><scale value="5"/><rotate x="1" angle="90"/><translate x="30" y="49"/></transform>
-    <emitter type="area"><rgb name="radiance" value="120"/></emitter>
-  </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="30"/><rotate x="1" angle="90"/><translate x="-50" y="49.5"/></transform>
-    <emitter type="area"><rgb name="radiance" value="1"/></emitter>
-  </shape>
-)");
+  const std::string two = planes_scene(50.0f, 40.0f, 50.0f, 5.0f, 0.0f, 49.0f,
+                                       square_light(5.0f, true, 30.0f, 49.0f, 120.0f) +
+                                           square_light(30.0f, true, -50.0f, 49.5f, 1.0f));
   const std::vector<float> a = aims(spm::load_scene_string(two, "two.xml"));
   ASSERT_EQ(a.size(), 3u);
   EXPECT_NEAR(a[0], 0.25f, 1e-6f);
