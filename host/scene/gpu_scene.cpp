@@ -61,13 +61,14 @@ void aim_at_small_lights(SceneTables& t) {
     const SpmBvhNode& root = t.nodes[0];
     diagonal = glm::length(glm::dvec3(root.hi[0] - root.lo[0], root.hi[1] - root.lo[1], root.hi[2] - root.lo[2]));
   }
+  std::vector<bool> aimed;
   double total = 0.0;
   for (const SpmLight& l : t.lights) {
-    if (l.medium >= 0 && light_size(t, l) <= kAimedLightSize * diagonal) total += l.power;
+    aimed.push_back(l.medium >= 0 && light_size(t, l) <= kAimedLightSize * diagonal);
+    if (aimed.back()) total += l.power;
   }
-  for (SpmLight& l : t.lights) {
-    const bool aimed = l.medium >= 0 && light_size(t, l) <= kAimedLightSize * diagonal;
-    l.aim = aimed ? float(double(l.power) / total) : 0.0f;
+  for (size_t i = 0; i < t.lights.size(); ++i) {
+    t.lights[i].aim = aimed[i] ? float(double(t.lights[i].power) / total) : 0.0f;
   }
 }
 
@@ -390,8 +391,9 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       double area = 0.0;
       glm::dvec3 centroid(0.0);
       for (spm_uint id : ids) {
-        area += prim_area(t.prims[id]);
-        centroid += prim_area(t.prims[id]) * prim_centroid(t.prims[id]);
+        const double a = prim_area(t.prims[id]);
+        area += a;
+        centroid += a * prim_centroid(t.prims[id]);
       }
       if (area > 0.0) put3(g.position, glm::vec3(centroid / area));
       double acc = 0.0;

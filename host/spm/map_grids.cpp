@@ -9,11 +9,13 @@ namespace spm {
 
 namespace {
 
-template <class Record>
-std::vector<glm::vec3> positions(const std::vector<Record>& records) {
+// The positions of records[first, last).
+std::vector<glm::vec3> positions(const std::vector<SpmVolumeRecord>& records, size_t first, size_t last) {
   std::vector<glm::vec3> out;
-  out.reserve(records.size());
-  for (const auto& r : records) out.emplace_back(r.position[0], r.position[1], r.position[2]);
+  out.reserve(last - first);
+  for (size_t i = first; i < last; ++i) {
+    out.emplace_back(records[i].position[0], records[i].position[1], records[i].position[2]);
+  }
   return out;
 }
 
@@ -41,12 +43,7 @@ std::vector<cl_float4> per_item(const RecordGrid& grid, const std::vector<Record
 // positions; the items index `records`.
 void sphere_grid_of(const std::vector<SpmVolumeRecord>& records, size_t first, size_t last, float r,
                     RecordGrid& grid, std::vector<cl_float4>& pos) {
-  std::vector<glm::vec3> centres;
-  centres.reserve(last - first);
-  for (size_t i = first; i < last; ++i) {
-    centres.emplace_back(records[i].position[0], records[i].position[1], records[i].position[2]);
-  }
-  grid = build_sphere_grid(centres, r);
+  grid = build_sphere_grid(positions(records, first, last), r);
   for (uint32_t& item : grid.items) item += uint32_t(first);
   pos = volume_item_positions(grid, records);
 }
@@ -54,7 +51,7 @@ void sphere_grid_of(const std::vector<SpmVolumeRecord>& records, size_t first, s
 }  // namespace
 
 RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
-  return build_sphere_grid(positions(records), radius);
+  return build_sphere_grid(positions(records, 0, records.size()), radius);
 }
 
 RecordGrid surface_grid(const SpmSurfaceRecord* records, const std::vector<uint32_t>& used, float radius) {
