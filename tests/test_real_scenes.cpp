@@ -26,12 +26,6 @@ namespace {
 const std::string kFogBox = SPM_SCENES_DIR "/fog_box.xml";
 const std::string kFogBoxExterior = SPM_TEST_DATA_DIR "/scene/fog_box_exterior.xml";
 
-double image_mean(const spm::Image& img) {
-  double s = 0.0;
-  for (float v : img.rgb) s += v;
-  return s / img.rgb.size();
-}
-
 double rel_mse(const spm::Image& a, const spm::Image& ref) {
   double sum = 0.0;
   for (size_t i = 0; i < a.rgb.size(); ++i) {
@@ -113,7 +107,7 @@ TEST(MediaRegions, FogInTheSensorAndFogOnEveryShapeRenderTheSameImage) {
   for (size_t i = 0; i < ia.rgb.size(); ++i) {
     ASSERT_NEAR(ia.rgb[i], ib.rgb[i], 1e-5f * (1.0f + std::abs(ib.rgb[i]))) << "value " << i;
   }
-  EXPECT_GT(image_mean(ia), 0.05) << "the fog box renders light";
+  EXPECT_GT(spm::test::image_mean(ia), 0.05) << "the fog box renders light";
 }
 
 // ---- METHOD.md 10: streams end as paths do ---------------------------------
@@ -209,9 +203,9 @@ TEST(Roulette, IsUnbiased) {
   std::vector<double> with, without;
   for (uint32_t seed = 0; seed < 12; ++seed) {
     scene.integrator.rr_depth = 1;
-    with.push_back(image_mean(render(scene, 1, 100 + seed)));
+    with.push_back(spm::test::image_mean(render(scene, 1, 100 + seed)));
     scene.integrator.rr_depth = 1000;
-    without.push_back(image_mean(render(scene, 1, 200 + seed)));
+    without.push_back(spm::test::image_mean(render(scene, 1, 200 + seed)));
   }
   const auto a = spm::test::mean_and_error(with), b = spm::test::mean_and_error(without);
   EXPECT_NEAR(a.mean, b.mean, 5 * std::hypot(a.error, b.error))
@@ -349,10 +343,10 @@ TEST_F(TimeBudget, PassesEndWithinTheBudget) {
                   std::to_string(seed))
                   .code,
               0);
-    means.push_back(image_mean(spm::read_exr(path("f.exr"))));
+    means.push_back(spm::test::image_mean(spm::read_exr(path("f.exr"))));
   }
   const auto m = spm::test::mean_and_error(means);
-  EXPECT_NEAR(image_mean(timed), m.mean, 5 * std::sqrt(7.0) * m.error);
+  EXPECT_NEAR(spm::test::image_mean(timed), m.mean, 5 * std::sqrt(7.0) * m.error);
 }
 
 // A timed render's next pass gets the samples that put its gather at 2/3 of

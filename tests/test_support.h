@@ -59,6 +59,7 @@ inline double image_mean(const std::vector<float>& rgb) {
   for (float v : rgb) m += v;
   return m / double(rgb.size());
 }
+inline double image_mean(const Image& image) { return image_mean(image.rgb); }
 
 // The mean of independent draws and its standard error.
 struct Measured {
