@@ -381,23 +381,34 @@ TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
 }
 
 // The wall of the tests below: a 20 x 20 diffuse rectangle in the plane
-// z = 0, its normal +z, as flatten_scene would list it; and a null boundary
-// beside it (x in 30 .. 50), which light crosses, so it mirrors nothing.
+// z = 0, its normal +z, as flatten_scene would list it; and a null sheet
+// beside it (x in 30 .. 50) with medium 0 on both sides, which light
+// crosses, so it mirrors nothing.
 spm::SceneTables wall_tables() {
   spm::SceneTables t;
   SpmPatch wall{};
   wall.u[0] = 1.0f;
   wall.v[1] = 1.0f;
   wall.half_u = wall.half_v = 10.0f;
-  SpmPatch boundary = wall;
-  boundary.center[0] = 40.0f;
-  t.patches = {wall, boundary};
+  SpmPatch sheet = wall;
+  sheet.center[0] = 40.0f;
+  t.patches = {wall, sheet};
   t.patch_shapes = {0, 1};
   t.shapes.resize(2);
   t.shapes[1].material = 1;
   t.materials.resize(2);
   t.materials[0].type = SPM_MAT_DIFFUSE;
   t.materials[1].type = SPM_MAT_NULL;
+  return t;
+}
+
+// The same rectangle in the plane z = 0 as the boundary where medium 0
+// ends: a null shape with the medium on one side and none on the other.
+spm::SceneTables boundary_tables() {
+  spm::SceneTables t = wall_tables();
+  t.patches.resize(1);
+  t.patch_shapes = {1};
+  t.shapes[1].interior = -1;
   return t;
 }
 
@@ -452,6 +463,55 @@ TEST(WallImages, MirrorRecordsNearAWallOnly) {
   }
 }
 
+// Where a medium ends at a null boundary its records' density ends as at a
+// wall (the fog box of caustic_area, the open front of cornell_fog), so
+// records near it are mirrored across it too, though not where an opaque
+// wall stands between (a boundary just outside a room's wall: the wall's
+// own image fills that side), and not across a sheet with the medium on
+// both sides. A boundary does not name itself on the record: no estimate
+// is asked for beyond it, where there is no medium.
+TEST(WallImages, MirrorRecordsAcrossTheMediumsBoundary) {
+  spm::SceneTables t = wall_tables();  // the wall at z = 0 and the sheet beside it
+  SpmPatch behind = t.patches[0];      // a boundary just behind the wall
+  behind.center[2] = -0.5f;
+  SpmPatch beside = t.patches[0];      // a boundary in the wall's plane, beside it
+  beside.center[0] = -40.0f;
+  t.patches.push_back(behind);
+  t.patches.push_back(beside);
+  t.patch_shapes = {0, 1, 2, 2};
+  t.shapes.resize(3);
+  t.shapes[2].material = 1;
+  t.shapes[2].interior = -1;
+  const spm::WallImages walls(t, 1.0f);
+  EXPECT_EQ(walls.walls(), 3u) << "the wall and the two boundaries, not the sheet";
+  const glm::vec3 d = glm::normalize(glm::vec3(1.0f, 2.0f, -3.0f));
+  std::vector<SpmVolumeRecord> records = {
+      record_at({-40.0f, 2.0f, 0.4f}, d, 0),  // near the boundary beside the wall
+      record_at({1.0f, 2.0f, 0.4f}, d, 1),    // near the wall, the boundary behind it
+      record_at({1.0f, 2.0f, -0.2f}, d, 2),   // between the wall and the boundary
+      record_at({40.0f, 2.0f, 0.4f}, d, 3)};  // near the sheet
+  walls.add(records, 1.0f);
+  ASSERT_EQ(records.size(), 8u);
+  EXPECT_EQ(records[0].stream, 0u) << "a boundary leaves the record's side to its walls";
+  EXPECT_EQ(records[1].stream, SPM_RECORD_WALL | 0u);
+  EXPECT_EQ(records[2].stream, SPM_RECORD_WALL | 0u);
+  EXPECT_EQ(records[3].stream, 3u);
+  struct Expected {
+    uint32_t source, patch;
+    float z;
+  };
+  const Expected expected[4] = {{0, 3, -0.4f}, {1, 0, -0.4f}, {2, 0, 0.2f}, {2, 2, -0.8f}};
+  for (int k = 0; k < 4; ++k) {
+    const SpmVolumeRecord& image = records[4 + k];
+    const SpmVolumeRecord& source = records[expected[k].source];
+    EXPECT_EQ(image.stream, SPM_RECORD_WALL | SPM_RECORD_IMAGE | expected[k].patch) << "image " << k;
+    EXPECT_EQ(image.position[0], source.position[0]) << "image " << k;
+    EXPECT_NEAR(image.position[2], expected[k].z, 1e-6f) << "image " << k;
+    EXPECT_NEAR(image.direction[2], -d.z, 1e-6f) << "image " << k;
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(image.flux[c], source.flux[c]);
+  }
+}
+
 // A medium that neither absorbs nor attenuates: sigma_t 0, albedo 1,
 // isotropic.
 cl::Buffer clear_medium(spm::Device& dev) {
@@ -461,17 +521,19 @@ cl::Buffer clear_medium(spm::Device& dev) {
   return dev.upload("media", std::vector<SpmMedium>{clear});
 }
 
-// Records spread evenly over the slab 0 < z < 4 above the wall, each of flux
-// phi, in a medium that neither absorbs nor attenuates (sigma_t 0, albedo
-// 1, isotropic): the beam radiance estimate along a segment of length L is
-// rho phi L / (4 pi), its standard error the Poisson error of the k
-// records in the segment's tube. Along rays beside the wall (at 0.1 r to
-// 0.9 r) and rays that end on it at 45 degrees, the plain estimate is the
-// part of each disk above the wall, averaged along the ray, while with the
-// wall's images it is rho phi L / (4 pi); both within 4 standard errors.
-// A ray beyond the wall reads neither the images nor the records near the
-// wall, which without them leak through it. Rays sit 2 r apart, so their estimates are independent.
-TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
+// Records spread evenly over the slab 0 < z < 4 above the plane z = 0 of
+// `tables`' first patch (a wall, or the boundary where the medium ends),
+// each of flux phi, in a medium that neither absorbs nor attenuates
+// (sigma_t 0, albedo 1, isotropic): the beam radiance estimate along a
+// segment of length L is rho phi L / (4 pi), its standard error the
+// Poisson error of the k records in the segment's tube. Along rays beside
+// the patch (at 0.1 r to 0.9 r) and rays that end on it at 45 degrees, the
+// plain estimate is the part of each disk above it, averaged along the ray,
+// while with the images it is rho phi L / (4 pi); both within 4 standard
+// errors. With `wall`, a ray beyond it reads neither the images nor the
+// records near it, which without them leak through it. Rays sit 2 r apart,
+// so their estimates are independent.
+void expect_disks_given_back(const spm::SceneTables& tables, bool wall) {
   const float radius = 1.0f, phi = 0.01f, depth = 4.0f;
   const double rho = 50.0;
   const int count = int(rho * 20.0 * 20.0 * depth);
@@ -483,7 +545,6 @@ TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
     for (float& f : r.flux) f = phi;
   }
   std::vector<SpmVolumeRecord> mirrored = records;
-  const spm::SceneTables tables = wall_tables();
   spm::WallImages(tables, radius).add(mirrored, radius);
   ASSERT_GT(mirrored.size(), records.size() + records.size() / 5);
 
@@ -549,10 +610,16 @@ TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) {
     EXPECT_NEAR(plain_mean / rays_in, part / rays_in, 4.0 * error) << "group " << g;
     if (g == 0 || g == 3) EXPECT_LT(part / rays_in, 1.0 - 6.0 * error) << "group " << g << " tells them apart";
   }
-  for (int i = beyond; i < n; ++i) {
+  for (int i = beyond; i < n && wall; ++i) {
     EXPECT_GT(plain[i].s[0], 0.0f) << "ray " << i << ": without images, the disks leak through the wall";
     EXPECT_EQ(with[i].s[0], 0.0f) << "ray " << i << " beyond the wall";
   }
+}
+
+TEST(BeamEstimate, WallImagesGiveBackTheDiskBeyondAWall) { expect_disks_given_back(wall_tables(), true); }
+
+TEST(BeamEstimate, BoundaryImagesGiveBackTheDiskWhereTheMediumEnds) {
+  expect_disks_given_back(boundary_tables(), false);
 }
 
 // A sheet with fog on both sides (a mirror or a lamp's box hanging in fog):

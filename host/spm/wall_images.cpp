@@ -19,9 +19,13 @@ glm::vec3 v3(const float* f) { return glm::vec3(f[0], f[1], f[2]); }
 WallImages::WallImages(const SceneTables& t, float reach) : reach_(reach * 1.001f) {
   for (size_t i = 0; i < t.patches.size(); ++i) {
     const SpmPatch& p = t.patches[i];
-    const spm_uint type = t.materials[t.shapes[t.patch_shapes[i]].material].type;
-    if (type != SPM_MAT_DIFFUSE && type != SPM_MAT_MIRROR) continue;
+    const SpmShape& shape = t.shapes[t.patch_shapes[i]];
+    const spm_uint type = t.materials[shape.material].type;
+    const bool opaque = type == SPM_MAT_DIFFUSE || type == SPM_MAT_MIRROR;
+    const bool boundary = type == SPM_MAT_NULL && (shape.interior < 0) != (shape.exterior < 0);
+    if (!opaque && !boundary) continue;
     Wall w;
+    w.boundary = boundary;
     w.centre = v3(p.center);
     w.u = v3(p.u);
     w.v = v3(p.v);
@@ -64,6 +68,18 @@ WallImages::WallImages(const SceneTables& t, float reach) : reach_(reach * 1.001
   }
 }
 
+bool WallImages::crosses_opaque_wall(size_t cell, glm::vec3 a, glm::vec3 b) const {
+  for (uint32_t k = cell_start_[cell]; k < cell_start_[cell + 1]; ++k) {
+    const Wall& o = walls_[cell_walls_[k]];
+    if (o.boundary) continue;
+    const float sa = glm::dot(a - o.centre, o.normal), sb = glm::dot(b - o.centre, o.normal);
+    if ((sa > 0.0f) == (sb > 0.0f) || sa == sb) continue;
+    const glm::vec3 c = a + (sa / (sa - sb)) * (b - a) - o.centre;
+    if (std::abs(glm::dot(c, o.u)) <= o.half_u && std::abs(glm::dot(c, o.v)) <= o.half_v) return true;
+  }
+  return false;
+}
+
 void WallImages::add(std::vector<SpmVolumeRecord>& records, float radius) const {
   if (walls_.empty() || !(radius > 0.0f)) return;
   if (radius > reach_) {
@@ -83,7 +99,11 @@ void WallImages::add(std::vector<SpmVolumeRecord>& records, float radius) const 
       if (!(std::abs(s) < radius) || s == 0.0f) continue;
       const glm::vec3 foot = x - s * w.normal - w.centre;
       if (std::abs(glm::dot(foot, w.u)) > w.half_u || std::abs(glm::dot(foot, w.v)) > w.half_v) continue;
-      if (std::abs(s) < nearest) {
+      if (w.boundary) {
+        // Behind an opaque wall the boundary's other side is the wall's,
+        // whose own image fills it.
+        if (crosses_opaque_wall(c, x, x - s * w.normal)) continue;
+      } else if (std::abs(s) < nearest) {
         nearest = std::abs(s);
         records[i].stream = SPM_RECORD_WALL | w.patch;
       }
