@@ -220,8 +220,8 @@ TEST(Validation, VolumetricCausticConvergesToMitsubaOutsideTheCaustic) {
 // 2 passes, 0.998 to 1.000 after 8. In the floor caustic under the sphere
 // (about 5x the floor's radiance) spm/volpath is 0.97 to 1.01 after 2 passes
 // over the seeds and 0.98 to 1.02 after 8 (the reference's first half
-// differs from it there by 0.25%); a caustic lost (no collapse at the glass) or doubled
-// would leave 0.85 to 1.1.
+// differs from it there by 0.25%); a caustic lost (no collapse at the
+// glass) or doubled would leave 0.85 to 1.1.
 TEST(Validation, AreaLitCausticConvergesToMitsuba) {
   const Region caustic{26, 46, 38, 54};
   Case c{"caustic_area", 2, 0.0019, {}};
@@ -239,8 +239,8 @@ TEST(Validation, AreaLitCausticConvergesToMitsuba) {
 // only through the mirror. volpath reaches the mirrored light only by
 // hitting the light after the mirror, so its reference is slow to converge:
 // 524,288 samples (issue 14, sixth session; it was 98,304), whose own noise,
-// from its difference with the 98,304-sample one it continues, is a relMSE
-// of about 0.0033 (the old one's 0.018). Measured against it (64x64,
+// from its difference with the 98,304-sample one whose chunks it shares, is
+// a relMSE of about 0.0033 (the old one's 0.018). Measured against it (64x64,
 // max_bounces 32): relMSE after 2 passes 0.00788 (seed 7, the one used
 // here; seeds 11, 13: 0.00763, 0.00796), after 8 passes 0.00455 (0.00454,
 // 0.00454), most of it the reference's noise; mean ratio spm/volpath 0.990

@@ -74,8 +74,7 @@ bool WallImages::crosses_opaque_wall(size_t cell, glm::vec3 a, glm::vec3 b) cons
     if (o.boundary) continue;
     const float sa = glm::dot(a - o.centre, o.normal), sb = glm::dot(b - o.centre, o.normal);
     if ((sa > 0.0f) == (sb > 0.0f) || sa == sb) continue;
-    const glm::vec3 c = a + (sa / (sa - sb)) * (b - a) - o.centre;
-    if (std::abs(glm::dot(c, o.u)) <= o.half_u && std::abs(glm::dot(c, o.v)) <= o.half_v) return true;
+    if (o.covers(a + (sa / (sa - sb)) * (b - a) - o.centre)) return true;
   }
   return false;
 }
@@ -97,8 +96,7 @@ void WallImages::add(std::vector<SpmVolumeRecord>& records, float radius) const 
       const Wall& w = walls_[cell_walls_[k]];
       const float s = glm::dot(x - w.centre, w.normal);
       if (!(std::abs(s) < radius) || s == 0.0f) continue;
-      const glm::vec3 foot = x - s * w.normal - w.centre;
-      if (std::abs(glm::dot(foot, w.u)) > w.half_u || std::abs(glm::dot(foot, w.v)) > w.half_v) continue;
+      if (!w.covers(x - s * w.normal - w.centre)) continue;
       if (w.boundary) {
         // Behind an opaque wall the boundary's other side is the wall's,
         // whose own image fills it.

@@ -16,6 +16,7 @@
 // wall reads neither.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -60,6 +61,11 @@ class WallImages {
     float half_u, half_v;
     uint32_t patch;
     bool boundary;  // a medium boundary, not an opaque wall
+    // Whether the point `offset` from the centre, in the wall's plane or
+    // projected onto it, lies on the rectangle.
+    bool covers(glm::vec3 offset) const {
+      return std::abs(glm::dot(offset, u)) <= half_u && std::abs(glm::dot(offset, v)) <= half_v;
+    }
   };
   // Whether the segment a-b, within the reach of grid cell `cell`, crosses
   // an opaque wall.
