@@ -238,23 +238,23 @@ TEST(Validation, AreaLitCausticConvergesToMitsuba) {
 // spherical area light in a black box aimed at it; the floor sees the light
 // only through the mirror. volpath reaches the mirrored light only by
 // hitting the light after the mirror, so its reference is slow to converge:
-// 524,288 samples (issue 14, sixth session; it was 98,304), whose own noise,
-// from its difference with the 98,304-sample one whose chunks it shares, is
-// a relMSE of about 0.0033 (the old one's 0.018). Measured against it (64x64,
-// max_bounces 32): relMSE after 2 passes 0.00788 (seed 7, the one used
-// here; seeds 11, 13: 0.00763, 0.00796), after 8 passes 0.00455 (0.00454,
-// 0.00454), most of it the reference's noise; mean ratio spm/volpath 0.990
-// to 1.017 after 2 passes, 0.996 to 1.000 after 8. The bound 0.0139 is
-// 1.75x the worst seed. The light is hidden from the camera, so no pixel
-// sees it. The floor patch the mirror lights (the rectangle below, inside
-// it; 6.5x the light left there without the mirror) checks the caustic
-// itself: spm/volpath there is 0.95 to 1.04 after 2 passes over the seeds
-// and 1.008 to 1.020 after 8 (the old reference was 4% brighter there than
-// this one); the caustic lost leaves 0.16, half of it 0.58, doubled 1.8
-// (measured against the old reference), and 0.85 to 1.1 takes in the seeds.
+// 1,048,576 samples (issue 14, seventh session; 98,304, then 524,288, whose
+// chunks it continues), whose own noise, from its difference with the
+// 524,288-sample half, is a relMSE of about 0.0017. Measured against it
+// (64x64, max_bounces 32): relMSE after 2 passes 0.00619 (seed 7, the one
+// used here; seeds 11, 13: 0.00602, 0.00633), after 8 passes 0.00288
+// (0.00286, 0.00293), more than half of it the reference's noise; mean
+// ratio spm/volpath 0.991 to 1.018 after 2 passes, 0.996 to 1.000 after 8.
+// The bound 0.0111 is 1.75x the worst seed. The light is hidden from the
+// camera, so no pixel sees it. The floor patch the mirror lights (the
+// rectangle below, inside it; 6.5x the light left there without the
+// mirror) checks the caustic itself: spm/volpath there is 0.94 to 1.04
+// after 2 passes over the seeds and 1.008 to 1.020 after 8; the caustic
+// lost leaves 0.16, half of it 0.58, doubled 1.8 (measured against the
+// first reference), and 0.85 to 1.1 takes in the seeds.
 TEST(Validation, MirrorAreaCausticConvergesToMitsuba) {
   const Region patch{34, 41, 56, 49};
-  const Renders r = validate({"mirror_area", 2, 0.0139, {}});
+  const Renders r = validate({"mirror_area", 2, 0.0111, {}});
   const double inside = mean_ratio(r.n4, r.ref, patch, true);
   EXPECT_GT(inside, 0.85) << "spm/volpath in the floor patch the mirror lights: " << inside;
   EXPECT_LT(inside, 1.1) << "spm/volpath in the floor patch the mirror lights: " << inside;
