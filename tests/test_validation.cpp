@@ -209,19 +209,19 @@ TEST(Validation, VolumetricCausticConvergesToMitsubaOutsideTheCaustic) {
 // before emission chains (spm_gather.cl) one camera sample in a few hundred
 // found it and made a firefly, so the bound applies to the median of seeds
 // 7, 11, 13, 17, 19, which a rare firefly in one of them does not move.
-// Measured against the 2,097,152-sample reference (64x64, the file's
-// settings, max_bounces 32; issue 14, sixth session), relMSE after 2 passes
-// over seeds 7, 11, 13, 17, 19, 23, 29, 31: 0.00087, 0.00098, 0.00082,
-// 0.00109, 0.00103, 0.00085, 0.00102, 0.00072 (the worst two pixels at most
-// 16% of a seed's error: no fireflies left), median of the five 0.00098;
-// the bound 0.0019 is 1.75x the worst seed. After 8 passes (seeds 7, 11,
-// 13): 0.00031, 0.00032, 0.00026, which the test asks to fall below the
-// 2-pass median; mean ratio spm/volpath over the image 0.992 to 1.008 after
-// 2 passes, 0.998 to 1.000 after 8. In the floor caustic under the sphere
-// (about 5x the floor's radiance) spm/volpath is 0.97 to 1.01 after 2 passes
-// over the seeds and 0.98 to 1.02 after 8 (the reference's first half
-// differs from it there by 0.25%); a caustic lost (no collapse at the
-// glass) or doubled would leave 0.85 to 1.1.
+// Measured against the 4,194,304-sample reference (64x64, the file's
+// settings, max_bounces 32; issue 14, seventh session), relMSE after 2
+// passes over seeds 7, 11, 13, 17, 19, 23, 29, 31: 0.00086, 0.00092,
+// 0.00081, 0.00106, 0.00100, 0.00084, 0.00102, 0.00075 (the worst two
+// pixels at most 14% of a seed's error: no fireflies left), median of the
+// five 0.00092; the bound 0.0019 is 1.75x the worst seed. After 8 passes
+// (seeds 7, 11, 13): 0.00028, 0.00028, 0.00024, which the test asks to fall
+// below the 2-pass median; mean ratio spm/volpath over the image 0.992 to
+// 1.008 after 2 passes, 0.999 to 1.001 after 8. In the floor caustic under
+// the sphere (about 5x the floor's radiance) spm/volpath is 0.97 to 1.02
+// after 2 passes over the seeds and 0.98 to 1.02 after 8 (the reference's
+// first half differs from it there by 0.27%); a caustic lost (no collapse
+// at the glass) or doubled would leave 0.85 to 1.1.
 TEST(Validation, AreaLitCausticConvergesToMitsuba) {
   const Region caustic{26, 46, 38, 54};
   Case c{"caustic_area", 2, 0.0019, {}};
