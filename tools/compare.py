@@ -13,6 +13,7 @@ squared error on a log colour scale) and --diff-png a signed difference map.
 Examples:
   tools/compare.py build/out/cornell_fog.exr tests/data/reference/cornell_fog.exr
   tools/compare.py a.exr ref.exr --png build/err.png --json build/err.json
+  tools/compare.py a.exr tests/data/reference/caustic_area.exr --lights 100
 """
 from __future__ import annotations
 
@@ -65,6 +66,24 @@ def metrics(a, b, eps=EPSILON, mask=None):
         "mean_ratio_all": float(a.mean() / b.mean()) if b.mean() != 0 else float("nan"),
         "nonfinite": int(np.count_nonzero(~np.isfinite(a))),
     }
+
+
+def light_masks(ref, factor):
+    """The pixels that see a light directly, and the ring of pixels around
+    them (HxW bool each): where the reference's mean over channels is over
+    `factor` times its median, and those pixels' 8-neighbours that are not.
+    A light a few pixels wide is its silhouette: each of its pixels sees its
+    edge (issue 14 asks for silhouettes as clean as volpath's)."""
+    import numpy as np
+    lum = ref.mean(axis=2)
+    light = lum > factor * np.median(lum)
+    padded = np.pad(light, 1)
+    h, w = light.shape
+    ring = np.zeros_like(light)
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            ring |= padded[dy:dy + h, dx:dx + w]
+    return light, ring & ~light
 
 
 def _tonemap(img, scale):
@@ -125,16 +144,29 @@ def main() -> int:
     p.add_argument("--diff-png", type=Path, help="the same with the signed relative difference")
     p.add_argument("--json", type=Path, help="write the numbers as JSON")
     p.add_argument("--eps", type=float, default=EPSILON, help="relMSE epsilon (default %(default)s)")
+    p.add_argument("--lights", type=float, default=None, metavar="FACTOR",
+                   help="also the errors over the pixels that see a light (the reference over FACTOR times its "
+                        "median, e.g. 100) and over the ring of pixels around them")
     p.add_argument("--build-dir", type=Path, default=reference.default_build_dir(),
                    help="build directory holding venv-mitsuba (default: %(default)s)")
     args = p.parse_args()
     a, b = load_exr(args.image), load_exr(args.reference)
     m = metrics(a, b, args.eps)
+    if args.lights is not None:
+        light, ring = light_masks(b, args.lights)
+        if not light.any():
+            raise SystemExit(f"compare: no pixel of {args.reference} is over {args.lights:g} times its median")
+        m["light_pixels"], m["ring_pixels"] = int(light.sum()), int(ring.sum())
+        m["light_relmse"] = metrics(a, b, args.eps, light)["relmse"]
+        m["ring_relmse"] = metrics(a, b, args.eps, ring)["relmse"] if ring.any() else float("nan")
     print(f"RMSE    {m['rmse']:.6g}")
     print(f"relMSE  {m['relmse']:.6g}  (eps {args.eps:g})")
     print("mean    image {:.6g} {:.6g} {:.6g}".format(*m["mean"]))
     print("        ref   {:.6g} {:.6g} {:.6g}".format(*m["mean_ref"]))
     print("        ratio {:.4f} {:.4f} {:.4f}  (all channels {:.4f})".format(*m["mean_ratio"], m["mean_ratio_all"]))
+    if args.lights is not None:
+        print(f"lights  relMSE {m['light_relmse']:.6g} over the {m['light_pixels']} pixels that see a light, "
+              f"{m['ring_relmse']:.6g} over the {m['ring_pixels']} around them")
     if m["nonfinite"]:
         print(f"non-finite values in the image: {m['nonfinite']}")
     if args.png:

@@ -27,6 +27,12 @@ that noise (the two are independent), so the table adds the ratio of
 both errors less V, which a judge whose noise is near spm's error would
 otherwise hide.
 
+--lights FACTOR adds a table of both renderers' relMSE over the pixels that
+see a light directly (the reference over FACTOR times its median: a light a
+few pixels wide, each of whose pixels sees its edge) and over the ring of
+pixels around them, the silhouette and glow that issue 14 asks to be as
+clean as volpath's.
+
 Everything goes to --out (default BUILD/convergence/SCENE); --summary-dir
 copies the small plots and the markdown table there too (for the README).
 
@@ -37,6 +43,9 @@ Example:
   # the global fog box (every spm setting derived, volpath unbounded):
   tools/convergence.py scenes/fog_box.xml --reference tests/data/reference/fog_box.exr \\
       --passes 1,4,16 --estimators bre --budgets 10 --max-depth -1
+  # a small light the camera sees, its silhouette tabulated too:
+  tools/convergence.py scenes/caustic_area.xml --reference tests/data/reference/caustic_area.exr \
+      -D res=64 --passes 1 --estimators bre --budgets 2,5,10,30 --repeats 5 --lights 100
 """
 from __future__ import annotations
 
@@ -123,6 +132,11 @@ def plot_sweep(rows, path, title):
     plt.close(fig)
 
 
+# equal_time.csv's columns with --lights: relMSE over the pixels that see a
+# light and over the ring around them (compare.light_masks).
+LIGHT_KEYS = ("spm_light_relmse", "mitsuba_light_relmse", "spm_ring_relmse", "mitsuba_ring_relmse")
+
+
 def median_rows(rows, budgets):
     """Per budget, the median of each number over its runs, and the range of
     the per-run ratio."""
@@ -132,7 +146,7 @@ def median_rows(rows, budgets):
         runs = [r for r in rows if r["budget"] == b]
         m = {k: statistics.median(r[k] for r in runs)
              for k in ("spm_passes", "spm_seconds", "spm_relmse", "mitsuba_spp", "mitsuba_seconds", "mitsuba_relmse",
-                       "ratio", "ratio_less_noise")}
+                       "ratio", "ratio_less_noise", *LIGHT_KEYS) if k in runs[0]}
         m.update(budget=b, runs=len(runs), ratio_min=min(r["ratio"] for r in runs),
                  ratio_max=max(r["ratio"] for r in runs))
         out.append(m)
@@ -180,6 +194,9 @@ def main() -> int:
     p.add_argument("--reference-noise", type=float, default=0.0,
                    help="the reference's own relMSE noise (tests/data/reference/README.md): the table adds the ratio "
                         "with it taken from both renderers' relMSE (default: none)")
+    p.add_argument("--lights", type=float, default=None, metavar="FACTOR",
+                   help="also tabulate both renderers' relMSE over the pixels that see a light (the reference over "
+                        "FACTOR times its median, e.g. 100: a small light's silhouette) and over the ring around them")
     p.add_argument("--summary-dir", type=Path, default=None,
                    help="also copy the plots and the markdown table here as SCENE_*.png / SCENE_*.md")
     args = p.parse_args()
@@ -196,6 +213,10 @@ def main() -> int:
     spm = args.spm or args.build_dir / "spm"
     ref = compare.load_exr(args.reference)
     res = (ref.shape[1], ref.shape[0])
+    if args.lights is not None:
+        light, ring = compare.light_masks(ref, args.lights)
+        if not light.any() or not ring.any():
+            p.error(f"--lights {args.lights:g}: no pixel of the reference is over {args.lights:g} times its median")
     passes = [int(x) for x in args.passes.split(",") if x]
     estimators = [x for x in args.estimators.split(",") if x]
 
@@ -281,6 +302,10 @@ def main() -> int:
                                 "ratio": ms["relmse"] / mm["relmse"],
                                 "ratio_less_noise": (ms["relmse"] - args.reference_noise) /
                                                     (mm["relmse"] - args.reference_noise)})
+                if args.lights is not None:
+                    a, m = compare.load_exr(exr), img.astype(np.float64)
+                    et_rows[-1].update(zip(LIGHT_KEYS, (compare.metrics(x, ref, mask=k)["relmse"]
+                                                        for k in (light, ring) for x in (a, m))))
         write_csv(out / "equal_time.csv", et_rows, list(et_rows[0].keys()))
         med = median_rows(et_rows, budgets)
         plot_equal_time(med, out / "equal_time.png", f"{name} {res[0]}x{res[1]}: equal time")
@@ -301,6 +326,11 @@ def main() -> int:
                f"{r['mitsuba_spp']:g} | {r['mitsuba_seconds']:.2f} | {r['mitsuba_relmse']:.4g} | "
                f"{r['ratio']:.2g} ({r['ratio_min']:.2g}-{r['ratio_max']:.2g}) |"
                + (f" {r['ratio_less_noise']:.2g} |" if noise else "") for r in med]
+    if et_rows and args.lights is not None:
+        md += ["", f"relMSE over the {int(light.sum())} pixels that see a light (the reference over {args.lights:g} "
+               f"times its median) and the {int(ring.sum())} around them (medians):", "",
+               "| budget s | light: spm | light: Mitsuba | around: spm | around: Mitsuba |", "|---|---|---|---|---|"]
+        md += [f"| {r['budget']:g} | " + " | ".join(f"{r[k]:.2g}" for k in LIGHT_KEYS) + " |" for r in med]
     (out / "summary.md").write_text("\n".join(md) + "\n")
     (out / "summary.json").write_text(json.dumps({"sweep": rows, "equal_time": et_rows}, indent=2) + "\n")
     print("\n".join(md))
