@@ -44,7 +44,7 @@ Example:
   tools/convergence.py scenes/fog_box.xml --reference tests/data/reference/fog_box.exr \\
       --passes 1,4,16 --estimators bre --budgets 10 --max-depth -1
   # a small light the camera sees, its silhouette tabulated too:
-  tools/convergence.py scenes/caustic_area.xml --reference tests/data/reference/caustic_area.exr \
+  tools/convergence.py scenes/caustic_area.xml --reference tests/data/reference/caustic_area.exr \\
       -D res=64 --passes 1 --estimators bre --budgets 2,5,10,30 --repeats 5 --lights 100
 """
 from __future__ import annotations
@@ -289,8 +289,9 @@ def main() -> int:
                 else:
                     img, spp_done, secs = mitsuba_run()
                     r = spm_run()
-                ms = compare.metrics(compare.load_exr(exr), ref)
-                mm = compare.metrics(img.astype(np.float64), ref)
+                spm_img, mitsuba_img = compare.load_exr(exr), img.astype(np.float64)
+                ms = compare.metrics(spm_img, ref)
+                mm = compare.metrics(mitsuba_img, ref)
                 log(f"budget {b:g} s, run {rep + 1}/{args.repeats}: spm {r['passes']} passes {r['seconds']:.2f} s "
                     f"relMSE {ms['relmse']:.4g}; Mitsuba {spp_done} spp {secs:.2f} s relMSE {mm['relmse']:.4g}")
                 reference.write_exr(exr.with_name(exr.name.replace("equal_spm_", "equal_mitsuba_")), img)
@@ -303,9 +304,8 @@ def main() -> int:
                                 "ratio_less_noise": (ms["relmse"] - args.reference_noise) /
                                                     (mm["relmse"] - args.reference_noise)})
                 if args.lights is not None:
-                    a, m = compare.load_exr(exr), img.astype(np.float64)
                     et_rows[-1].update(zip(LIGHT_KEYS, (compare.metrics(x, ref, mask=k)["relmse"]
-                                                        for k in (light, ring) for x in (a, m))))
+                                                        for k in (light, ring) for x in (spm_img, mitsuba_img))))
         write_csv(out / "equal_time.csv", et_rows, list(et_rows[0].keys()))
         med = median_rows(et_rows, budgets)
         plot_equal_time(med, out / "equal_time.png", f"{name} {res[0]}x{res[1]}: equal time")
