@@ -216,7 +216,8 @@ def main() -> int:
     if args.lights is not None:
         light, ring = compare.light_masks(ref, args.lights)
         if not light.any() or not ring.any():
-            p.error(f"--lights {args.lights:g}: no pixel of the reference is over {args.lights:g} times its median")
+            p.error(f"--lights {args.lights:g}: the reference has no pixel over {args.lights:g} times its median, "
+                    "or no pixel around those")
     passes = [int(x) for x in args.passes.split(",") if x]
     estimators = [x for x in args.estimators.split(",") if x]
 
