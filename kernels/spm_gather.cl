@@ -15,39 +15,18 @@
 #include "spm_maps.h"
 #include "lib/bsdf.h"
 #include "lib/camera.h"
-#include "lib/estimate.h"
 #include "lib/lights.h"
+#include "lib/maps.h"
 #include "lib/rng.h"
 
 /* What the estimates need, bundled for the path loop. */
 typedef struct SpmMaps {
   uint direct_terms; /* 0: the photon estimates alone (a later part of the maps) */
   uint terms;        /* SPM_TERM_* bits of the terms to compute (spm_types.h) */
-  SpmGrid volume_grid;
-  const __global uint* volume_items;
-  const __global SpmVolumeRecord* volume;
-  SpmGrid gather_grid; /* the gather rays' grid of the same records (map_grids.h) */
-  const __global uint* gather_items;
-  SpmGrid volume_caustic_grid; /* the caustic ones among them (map_grids.h) */
-  const __global uint* volume_caustic_items;
-  SpmGrid outer_grid; /* the volume records outside volume_core (map_grids.h) */
-  const __global uint* outer_items;
-  const __global SpmVolumeRecord* outer;
-  const __global SpmGridInfo* beam_info;
-  const __global uint* beam_start;
-  const __global uint* beam_items;
-  const __global SpmBeam* beams;
-  SpmGrid surface_grid;
-  const __global float4* surface_flux;
-  SpmGrid caustic_grid;
-  const __global float4* caustic_flux;
+  SpmMapTable table; /* the grids and who reads them (lib/maps.h) */
   float radius;
-  float volume_radius; /* the volume records' kernel radius (integrator volume_radius) */
-  float gather_volume_radius; /* the gather rays' (SpmGatherParams) */
-  float caustic_volume_radius; /* the camera's for caustic volume records (SpmGatherParams) */
-  float gather_aim; /* the share of gather rays aimed at lights (SpmGatherParams) */
-  float beam_radius;
-  uint density_kernel;
+  float volume_radius; /* the camera's volume kernel radius: the reach of its shared estimate */
+  float gather_aim;    /* the share of gather rays aimed at lights (SpmGatherParams) */
   uint estimator;
   uint direct;
   uint final_gather;
@@ -250,32 +229,6 @@ inline float3 medium_nee(const SpmScene* s, int medium, float3 o, float3 d, floa
                                                        : inscatter_nee(s, medium, o, d, t0, t1, step, rng);
 }
 
-/* The beam radiance estimate over the volume records along [t0, t1]: the
- * records near the scene and those beyond it are in two grids, each record
- * in one (host/spm/map_grids.h), so the estimate is the sum of both; near
- * the scene the caustic records (SPM_RECORD_CAUSTIC) have a grid of their
- * own, of the caustic volume radius, and the volume grid holds the rest.
- * A gather ray (`gather`) reads them with the gather rays' radius: where it
- * is below the volume radius, through the grid built for it over all of
- * them (a grid of radius R serves any radius up to R, but walks cells of
- * 2R). */
-inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o, float3 d,
-                               float t0, float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab,
-                               uint* tests) {
-  const bool own = gather && maps->gather_volume_radius < maps->volume_radius;
-  const float r = gather ? maps->gather_volume_radius : maps->volume_radius;
-  const float3 sum =
-      beam_estimate(own ? &maps->gather_grid : &maps->volume_grid, own ? maps->gather_items : maps->volume_items,
-                    maps->volume, s->md.media, s->patches, medium, o, d, t0, t1, r, maps->density_kernel,
-                    maps->estimator, min_depth, max_depth, tab, tests) +
-      beam_estimate(&maps->outer_grid, maps->outer_items, maps->outer, s->md.media, s->patches, medium, o, d, t0, t1,
-                    r, maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
-  if (own) return sum;
-  return sum + beam_estimate(&maps->volume_caustic_grid, maps->volume_caustic_items, maps->volume, s->md.media,
-                             s->patches, medium, o, d, t0, t1, fmin(r, maps->caustic_volume_radius),
-                             maps->density_kernel, maps->estimator, min_depth, max_depth, tab, tests);
-}
-
 /* The volume estimate (records or stream beams) along [t0, t1] in a
  * heterogeneous medium: in pieces of SPM_TABLE_KNOTS knots, each with the
  * table of optical depth and albedo that all its records or beams read
@@ -284,8 +237,8 @@ inline float3 records_estimate(const SpmScene* s, const SpmMaps* maps, bool gath
  * cube (0 before it), or, for a constant sigma_t, at the albedo grid's
  * (sigma_t times the distance); they end where the medium stops
  * scattering (medium_clip). */
-inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o,
-                                            float3 d, float t0, float t1, uint min_depth, uint max_depth,
+inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* maps, uint reader, int medium,
+                                            float3 o, float3 d, float t0, float t1, uint min_depth, uint max_depth,
                                             uint* tests) {
   const __global SpmMedium* m = &s->md.media[medium];
   float a = t0, b = t1, end_a = t0, end = t1;
@@ -304,13 +257,8 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
     const float tb = fmin(b, ta + (float)(SPM_TABLE_KNOTS - 1) * h);
     const uint n = clamp((uint)ceil((tb - ta) / h) + 1u, 2u, (uint)SPM_TABLE_KNOTS);
     medium_table_fill(&s->md, medium, o, d, ta, h, n, &tab);
-    if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
-      sum += exp(-tau) * stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams,
-                                              s->md.media, medium, o, d, ta, tb, maps->beam_radius,
-                                              maps->density_kernel, min_depth, max_depth, &tab, tests);
-    } else {
-      sum += exp(-tau) * records_estimate(s, maps, gather, medium, o, d, ta, tb, min_depth, max_depth, &tab, tests);
-    }
+    sum += exp(-tau) * table_volume_estimate(&maps->table, reader, s->md.media, s->patches, medium, o, d, ta, tb,
+                                             min_depth, max_depth, &tab, tests);
     float3 albedo;
     tau += medium_table_depth(&tab, tb, &albedo);
     if (!(tb > ta)) break;
@@ -321,20 +269,16 @@ inline float3 heterogeneous_volume_estimate(const SpmScene* s, const SpmMaps* ma
 
 /* In-scattered radiance along [t0, t1] of o + t d in `medium` from the
  * photon maps, by the pass's volume estimator, from records (or beams) of
- * depths min_depth .. max_depth; `gather`: along a gather ray
- * (records_estimate). */
-inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, bool gather, int medium, float3 o, float3 d,
+ * depths min_depth .. max_depth, over the grids `reader` reads
+ * (SPM_READ_CAMERA or SPM_READ_GATHER; lib/maps.h). */
+inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, uint reader, int medium, float3 o, float3 d,
                               float t0, float t1, uint min_depth, uint max_depth, uint* tests) {
   if (maps->estimator != SPM_ESTIMATOR_PAPER && medium_is_heterogeneous(&s->md.media[medium]))
-    return heterogeneous_volume_estimate(s, maps, gather, medium, o, d, t0, t1, min_depth, max_depth, tests);
+    return heterogeneous_volume_estimate(s, maps, reader, medium, o, d, t0, t1, min_depth, max_depth, tests);
   SpmMediumTable homogeneous;
   homogeneous.n = 0u;
-  if (maps->estimator == SPM_ESTIMATOR_BEAMS) {
-    return stream_beam_estimate(maps->beam_info, maps->beam_start, maps->beam_items, maps->beams, s->md.media, medium, o,
-                                d, t0, t1, maps->beam_radius, maps->density_kernel, min_depth, max_depth,
-                                &homogeneous, tests);
-  }
-  return records_estimate(s, maps, gather, medium, o, d, t0, t1, min_depth, max_depth, &homogeneous, tests);
+  return table_volume_estimate(&maps->table, reader, s->md.media, s->patches, medium, o, d, t0, t1, min_depth,
+                               max_depth, &homogeneous, tests);
 }
 
 /* The camera segment's volume estimate, shared by a block's samples
@@ -343,7 +287,7 @@ inline float3 camera_volume_estimate(SpmVolumeReuse* reuse, const SpmScene* s, c
                                      float3 o, float3 d, float t0, float t1, uint min_depth, uint max_depth,
                                      uint* tests) {
   if (volume_reuse_hit(reuse, o, d, t0, t1, medium, min_depth, max_depth, maps->volume_radius)) return reuse->L;
-  const float3 L = volume_estimate(s, maps, false, medium, o, d, t0, t1, min_depth, max_depth, tests);
+  const float3 L = volume_estimate(s, maps, SPM_READ_CAMERA, medium, o, d, t0, t1, min_depth, max_depth, tests);
   if (!isinf(t1)) reuse->L = L;
   return L;
 }
@@ -505,7 +449,7 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       if (medium >= 0) {
         const float t_end = hit ? h.t : SPM_INF;
         if (maps->terms & SPM_TERM_GATHER_VOLUME) {
-          li += tr * volume_estimate(s, maps, true, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
+          li += tr * volume_estimate(s, maps, SPM_READ_GATHER, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
         }
       }
       if (!hit) break;
@@ -529,16 +473,14 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
         tr *= load3(m->reflectance);
         if (surface) {
           li += tr * SPM_INV_PI *
-                surface_estimate(&maps->caustic_grid, maps->caustic_flux, y.p, n, maps->radius, maps->density_kernel,
-                                 depth_limit, &patch);
+                table_surface_estimate(&maps->table, SPM_READ_GATHER_HOP, y.p, n, depth_limit, &patch);
         }
         x = y;
         d = wi;
         next = true;
       } else if (surface) {
         li += tr * load3(m->reflectance) * SPM_INV_PI *
-              surface_estimate(&maps->surface_grid, maps->surface_flux, y.p, n, maps->radius, maps->density_kernel,
-                               depth_limit, &patch);
+              table_surface_estimate(&maps->table, SPM_READ_GATHER_END, y.p, n, depth_limit, &patch);
       }
       break;
     }
@@ -681,7 +623,8 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         L += beta * volume_weight *
              (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit,
                                              tests)
-                    : volume_estimate(s, maps, false, medium, o, d, tmin, t_end, min_depth, depth_limit, tests));
+                    : volume_estimate(s, maps, SPM_READ_CAMERA, medium, o, d, tmin, t_end, min_depth, depth_limit,
+                                      tests));
       }
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && (maps->terms & SPM_TERM_INSCATTER) && maps->direct == SPM_DIRECT_NEE &&
@@ -712,18 +655,17 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         if (maps->final_gather) {
           float3 caustic = (float3)(0.0f), gathered = (float3)(0.0f);
           if (maps->terms & SPM_TERM_SURFACE) {
-            caustic = pixel_surface_estimate(reuse, &maps->caustic_grid, maps->caustic_flux, surf.p,
-                                             facing_normal(&surf, d), maps->radius, maps->density_kernel, depth_limit,
-                                             s->patches, surf.patch);
+            caustic = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p, facing_normal(&surf, d),
+                                             maps->radius, depth_limit, s->patches, surf.patch);
           }
           if (maps->terms & SPM_TERMS_GATHER) {
             gathered = final_gather(s, maps, &surf, d, medium, specular + 1u, max_depth, rng, tests);
           }
           L += beta * load3(m->reflectance) * (SPM_INV_PI * caustic + gathered);
         } else if (maps->terms & SPM_TERM_SURFACE) {
-          const float3 flux = pixel_surface_estimate(reuse, &maps->surface_grid, maps->surface_flux, surf.p,
-                                                     facing_normal(&surf, d), maps->radius, maps->density_kernel,
-                                                     depth_limit, s->patches, surf.patch);
+          const float3 flux = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p,
+                                                     facing_normal(&surf, d), maps->radius, depth_limit, s->patches,
+                                                     surf.patch);
           L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
         }
       }
@@ -741,12 +683,13 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
  * lib/estimate.h): at 1 sample per pixel the 2x2 pixels then read one disk
  * instead of four while the disk spans several pixels. */
 __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __global SpmCamera* camera,
-                         __global float4* film, __global uint* sphere_tests, __global uint* errors,
-                         const __global uchar* chain_pixels, uint first_pixel, uint count SPM_MAP_PARAMS) {
+                         __global float4* film, __global uint* errors,
+                         const __global uchar* chain_pixels SPM_MAP_PARAMS) {
   /* A tile of `count` pixels from first_pixel: the film of a whole image may
    * not fit one allocation. A block that straddles the tile's ends is
    * gathered whole and writes only its pixels in the tile, so that every
    * pixel's value, reuse included, is the same however the image is tiled. */
+  const uint first_pixel = params.first_pixel, count = params.count;
   const uint width = camera->width;
   const uint blocks_x = (width + SPM_GATHER_BLOCK - 1u) / SPM_GATHER_BLOCK;
   const uint block_row0 = first_pixel / width / SPM_GATHER_BLOCK;
@@ -757,33 +700,13 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   const uint by = block_row0 + item / blocks_x;
   const SpmScene s = SPM_SCENE;
   SpmMaps maps;
-  maps.volume_grid = make_grid(volume_info, volume_start, volume_pos);
-  maps.volume_items = volume_items;
-  maps.volume = volume;
-  maps.gather_grid = make_grid(gather_info, gather_start, gather_pos);
-  maps.gather_items = gather_items;
-  maps.volume_caustic_grid = make_grid(volume_caustic_info, volume_caustic_start, volume_caustic_pos);
-  maps.volume_caustic_items = volume_caustic_items;
-  maps.outer_grid = make_grid(outer_info, outer_start, outer_pos);
-  maps.outer_items = outer_items;
-  maps.outer = outer;
-  maps.beam_info = beam_info;
-  maps.beam_start = beam_start;
-  maps.beam_items = beam_items;
-  maps.beams = beams;
-  maps.surface_grid = make_grid(surface_info, surface_start, surface_pos);
-  maps.surface_flux = surface_flux;
-  maps.caustic_grid = make_grid(caustic_info, caustic_start, caustic_pos);
-  maps.caustic_flux = caustic_flux;
+  maps.table = make_map_table(grids, params.grids, grid_cells, grid_pos, surface_flux, volume_records, beams,
+                              params.density_kernel, params.estimator);
   maps.final_gather = params.final_gather;
   maps.march_step = params.march_step;
   maps.radius = params.radius;
   maps.volume_radius = params.volume_radius;
-  maps.gather_volume_radius = params.gather_volume_radius;
-  maps.caustic_volume_radius = params.caustic_volume_radius;
   maps.gather_aim = params.gather_aim;
-  maps.beam_radius = params.beam_radius;
-  maps.density_kernel = params.density_kernel;
   maps.estimator = params.estimator;
   maps.direct = params.direct;
   maps.direct_terms = params.direct_terms;
@@ -827,8 +750,8 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
     /* A NaN or infinity is a bug to find, not a value to clamp: the host
      * fails the render when this bit is set. */
     if (!all(isfinite(sum))) atomic_or(errors, SPM_ERROR_NONFINITE);
-    film[pixel - first_pixel] = (float4)(sum / (float)params.spp, 1.0f);
-    sphere_tests[pixel - first_pixel] = tests;
+    /* w: the sphere tests of the pixel's samples, for the profile. */
+    film[pixel - first_pixel] = (float4)(sum / (float)params.spp, as_float(tests));
   }
 }
 

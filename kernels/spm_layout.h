@@ -24,7 +24,8 @@
   S(SpmSurfaceRecord, 64)     \
   S(SpmStreamParams, 64)      \
   S(SpmGatherParams, 96)      \
-  S(SpmGridInfo, 32)
+  S(SpmGridInfo, 32)          \
+  S(SpmMapGrid, 64)
 
 /* F(struct, field) */
 #define SPM_LAYOUT_FIELDS(F)                                                                    \
@@ -67,11 +68,12 @@
   F(SpmGatherParams, seed) F(SpmGatherParams, pass) F(SpmGatherParams, spp)                     \
   F(SpmGatherParams, max_depth) F(SpmGatherParams, radius) F(SpmGatherParams, density_kernel)    \
   F(SpmGatherParams, estimator) F(SpmGatherParams, direct) F(SpmGatherParams, direct_terms)      \
-  F(SpmGatherParams, beam_radius) F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step) \
+  F(SpmGatherParams, final_gather) F(SpmGatherParams, march_step)                               \
   F(SpmGatherParams, first_sample) F(SpmGatherParams, strata_seed) F(SpmGatherParams, terms)     \
   F(SpmGatherParams, emission_chains) F(SpmGatherParams, volume_samples)                         \
-  F(SpmGatherParams, volume_radius) F(SpmGatherParams, gather_volume_radius)                     \
-  F(SpmGatherParams, caustic_volume_radius) F(SpmGatherParams, gather_aim)                      \
-  F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)
+  F(SpmGatherParams, volume_radius) F(SpmGatherParams, gather_aim) F(SpmGatherParams, grids)   \
+  F(SpmGatherParams, first_pixel) F(SpmGatherParams, count)                                     \
+  F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)           \
+  F(SpmMapGrid, info) F(SpmMapGrid, first_cell) F(SpmMapGrid, kind) F(SpmMapGrid, radius)
 
 #endif

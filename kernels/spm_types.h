@@ -336,7 +336,6 @@ typedef struct SpmGatherParams {
   spm_uint estimator;      /* SPM_ESTIMATOR_* */
   spm_uint direct;         /* SPM_DIRECT_* */
   spm_uint direct_terms;   /* 0: the photon estimates alone (a later part of the maps) */
-  spm_float beam_radius;   /* the stream beams' 1D kernel radius in the pass */
   spm_uint final_gather;   /* 1: one gather ray at the camera's diffuse vertex (with SPM_DIRECT_NEE) */
   spm_float march_step;    /* Delta of heterogeneous media's transmittance; 0: ratio tracking (METHOD.md 12) */
   spm_uint first_sample;   /* the render's index of the pass's first sample per pixel (stratify2) */
@@ -350,18 +349,16 @@ typedef struct SpmGatherParams {
    * camera segments' volume estimate, weighted spp / volume_samples; the
    * others leave it out (spm_gather). */
   spm_uint volume_samples;
-  spm_float volume_radius; /* the volume records' kernel radius in the pass (r unless volume_radius is set) */
-  /* The gather rays' volume radius: r when volume_radius is larger, read
-   * through a grid of their own (gather_info, map_grids.h); else the
-   * volume radius, through the volume grid. */
-  spm_float gather_volume_radius;
-  /* The camera's kernel radius for the volume records flagged
-   * SPM_RECORD_CAUSTIC, read through a grid of their own (volume_caustic_info,
-   * map_grids.h); at most the volume radius. */
-  spm_float caustic_volume_radius;
+  /* The volume records' kernel radius for the camera in the pass: the
+   * reach of a block's shared volume estimate (volume_reuse_hit). The
+   * radius each grid is read with is the grid table's (SpmMapGrid). */
+  spm_float volume_radius;
   /* The share of final-gather rays aimed at the lights whose `aim` is
    * above 0 (spm_gather.cl, gather_direction); 0: all cosine-weighted. */
   spm_float gather_aim;
+  spm_uint grids;       /* rows of the grid table (SpmMapGrid) */
+  spm_uint first_pixel; /* the launch's tile: `count` pixels from first_pixel */
+  spm_uint count;
   spm_uint pad[3];
 } SpmGatherParams;
 
@@ -375,5 +372,33 @@ typedef struct SpmGridInfo {
   spm_uint dims[3];  /* cells per axis (each >= 1) */
   spm_uint records;  /* records in the map */
 } SpmGridInfo;
+
+/* The places of a camera path that read the photon maps, each reading
+ * every grid of the table its SpmMapGrid.radius names (spm_gather.cl). */
+#define SPM_READ_CAMERA 0u     /* the camera's medium segments: volume */
+#define SPM_READ_GATHER 1u     /* the final-gather rays' medium segments: volume */
+#define SPM_READ_VERTEX 2u     /* the camera's diffuse vertex: surface */
+#define SPM_READ_GATHER_END 3u /* a gather ray's end: surface */
+#define SPM_READ_GATHER_HOP 4u /* a gather ray's end near its start, where the path goes on: surface */
+#define SPM_READERS 5u
+
+/* What a map grid lists, and so which estimate reads it (kernels/lib/estimate.h). */
+#define SPM_GRID_DISKS 0u    /* surface records, each in its cell: the surface estimate */
+#define SPM_GRID_SPHERES 1u  /* volume records' spheres: the beam radiance estimate */
+#define SPM_GRID_CAPSULES 2u /* stream beams' capsules: the beam x beam estimate */
+
+/* One row of the gather's grid table (kernels/spm_maps.h; the host's
+ * roles are in host/spm/map_grids.cpp). The grid's cell starts are
+ * grid_cells[first_cell .. first_cell + cells], indices of its items in
+ * the buffers all grids share. */
+typedef struct SpmMapGrid {
+  SpmGridInfo info;
+  spm_uint first_cell;
+  spm_uint kind; /* SPM_GRID_* */
+  /* The kernel radius each reader (SPM_READ_*) reads the grid with in the
+   * pass; 0: that reader does not read it. */
+  spm_float radius[SPM_READERS];
+  spm_uint pad;
+} SpmMapGrid;
 
 #endif

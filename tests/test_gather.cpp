@@ -13,112 +13,22 @@
 #include "spm/wall_images.h"
 #include "stats.h"
 #include "util/errors.h"
+#include "map_table.h"
 #include "test_support.h"
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 using glm::dvec3;
-
-dvec3 v3(const float* p) { return {p[0], p[1], p[2]}; }
-
-double kernel_2d(int kernel, double d2, double r2) {
-  return kernel == 1 ? 2.0 / (kPi * r2) * (1.0 - d2 / r2) : 1.0 / (kPi * r2);
-}
-
-double phase_hg(double cos_theta, double g) {
-  const double denom = 1 + g * g - 2 * g * cos_theta;
-  return (1 - g * g) / (4 * kPi * denom * std::sqrt(denom));
-}
-
-// METHOD.md 5 written out directly: every record, no grid.
-// Records deeper than max_depth are left out (METHOD.md 10), and those
-// shallower than min_depth.
-dvec3 beam_reference(const std::vector<SpmVolumeRecord>& records, const SpmMedium& m, int medium, dvec3 o, dvec3 d,
-                     double t0, double t1, double r, int kernel, int estimator, uint32_t min_depth,
-                     uint32_t max_depth) {
-  dvec3 sum(0.0);
-  for (const auto& rec : records) {
-    if (rec.medium != medium || rec.depth > max_depth || rec.depth < min_depth) continue;
-    const dvec3 x = v3(rec.position);
-    const double t = glm::dot(x - o, d);
-    if (t < t0 || t > t1) continue;
-    const double d2 = glm::dot(x - (o + t * d), x - (o + t * d));
-    if (d2 >= r * r) continue;
-    if (estimator == 1) {
-      sum += v3(rec.flux);
-      continue;
-    }
-    const double g = m.phase == SPM_PHASE_HG ? m.g : 0.0;
-    for (int c = 0; c < 3; ++c) {
-      sum[c] += kernel_2d(kernel, d2, r * r) * std::exp(-m.sigma_t[c] * (t - t0)) *
-                phase_hg(-glm::dot(v3(rec.direction), d), g) * rec.flux[c] * m.albedo[c];
-    }
-  }
-  return estimator == 1 ? sum / (kPi * r * r * (t1 - t0)) : sum;
-}
-
-// The volume map as spm_gather binds it: grid info, cell starts, item
-// positions, items, records.
-struct VolumeBuffers {
-  cl::Buffer info, start, pos, items, records;
-};
-
-VolumeBuffers upload(spm::Device& dev, const spm::RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
-  return {dev.upload("volume_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("volume_start", grid.cell_start),
-          dev.upload("volume_pos", spm::volume_item_positions(grid, records)), dev.upload("volume_items", grid.items),
-          dev.upload("volume", records)};
-}
-
-VolumeBuffers upload(spm::Device& dev, const std::vector<SpmVolumeRecord>& records, float radius) {
-  return upload(dev, spm::volume_grid(records, radius), records);
-}
-
-// What spm_beam_test sets apart from the map and the rays.
-struct BeamTestSettings {
-  float radius = 0.0f;
-  int kernel = 0, estimator = 0;
-  uint32_t min_depth = 0, max_depth = SPM_NONE;
-  std::vector<SpmPatch> walls = std::vector<SpmPatch>(1);  // the patches images name (SPM_RECORD_IMAGE)
-};
-
-// spm_beam_test over n rays (origin and t0, direction and t1) through the
-// volume map `u` in medium 0 of `media`: one estimate per ray.
-std::vector<cl_float4> beam_test(const VolumeBuffers& u, const cl::Buffer& media, const cl::Buffer& origins,
-                                 const cl::Buffer& directions, int n, const BeamTestSettings& t) {
-  auto& dev = spm::test::device();
-  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
-  cl::Kernel k = dev.kernel("spm_estimate", "spm_beam_test");
-  const cl::Buffer patches = dev.upload("patches", t.walls);
-  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
-                spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
-                spm::arg("patches", patches), spm::arg("origins", origins), spm::arg("directions", directions), spm::arg("out", out),
-                spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)), spm::arg("radius", t.radius),
-                spm::arg("density_kernel", cl_uint(t.kernel)), spm::arg("estimator", cl_uint(t.estimator)),
-                spm::arg("min_rec_depth", cl_uint(t.min_depth)), spm::arg("max_rec_depth", cl_uint(t.max_depth)));
-  dev.launch(k, n);
-  return dev.download<cl_float4>(out, n);
-}
-
-// The surface map: grid info, cell starts, item positions (normal packed),
-// item flux.
-struct SurfaceBuffers {
-  cl::Buffer info, start, pos, flux;
-};
+using spm::test::beam_reference;
+using spm::test::kernel_2d;
+using spm::test::kPi;
+using spm::test::v3;
 
 // Every record of `records`, as used_surface_records would list them.
 std::vector<uint32_t> all_of(const std::vector<SpmSurfaceRecord>& records) {
   std::vector<uint32_t> used(records.size());
   for (size_t i = 0; i < used.size(); ++i) used[i] = uint32_t(i);
   return used;
-}
-
-// A grid over records[used[i]] (surface_grid or another point grid).
-SurfaceBuffers upload(spm::Device& dev, const std::vector<SpmSurfaceRecord>& records,
-                      const std::vector<uint32_t>& used, const spm::RecordGrid& grid) {
-  const spm::SurfaceItems items = spm::surface_items(grid, records.data(), used);
-  return {dev.upload("surface_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("surface_start", grid.cell_start),
-          dev.upload("surface_pos", items.pos), dev.upload("surface_flux", items.flux)};
 }
 
 // The patch table and the patch of each query point (SPM_NONE: the plain
@@ -131,14 +41,15 @@ PatchBuffers no_patches(spm::Device& dev, int n) {
   return {dev.upload("patches", std::vector<SpmPatch>(1)), dev.upload("point_patch", std::vector<cl_uint>(n, SPM_NONE))};
 }
 
-// spm_surface_test's arguments, by name.
-void set_surface_test_args(cl::Kernel& k, const SurfaceBuffers& up, const cl::Buffer& points, const cl::Buffer& normals,
-                           const PatchBuffers& patches, const cl::Buffer& out, int n, float radius, int kernel,
-                           uint32_t max_depth) {
-  spm::set_args(k, spm::arg("info", up.info), spm::arg("cell_start", up.start), spm::arg("item_pos", up.pos),
-                spm::arg("item_flux", up.flux), spm::arg("points", points), spm::arg("normals", normals),
+// spm_surface_test's arguments, by name: the table's grids the camera's
+// vertex reads.
+void set_surface_test_args(cl::Kernel& k, const spm::test::TableBuffers& table, const cl::Buffer& points,
+                           const cl::Buffer& normals, const PatchBuffers& patches, const cl::Buffer& out, int n,
+                           int kernel, uint32_t max_depth) {
+  spm::set_args(k, table, spm::arg("points", points), spm::arg("normals", normals),
                 spm::arg("patches", patches.patches), spm::arg("point_patch", patches.point_patch), spm::arg("out", out),
-                spm::arg("count", cl_uint(n)), spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
+                spm::arg("count", cl_uint(n)), spm::arg("reader", cl_uint(SPM_READ_VERTEX)),
+                spm::arg("density_kernel", cl_uint(kernel)), spm::arg("estimator", cl_uint(SPM_ESTIMATOR_BRE)),
                 spm::arg("max_rec_depth", cl_uint(max_depth)));
 }
 
@@ -164,7 +75,7 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
   }
   const float radius = 0.8f;  // small against the box: long rays cross many cells
   auto& dev = spm::test::device();
-  const VolumeBuffers u = upload(dev, records, radius);
+  const spm::MapGridData u = spm::test::sphere_table(records, radius);
   const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{medium, medium});
   const int n = 500;
   std::vector<cl_float4> origins(n), dirs(n);
@@ -177,7 +88,12 @@ TEST_P(BeamEstimate, EqualsTheBruteForceSum) {
     dirs[i] = {{d.x, d.y, d.z, t1}};
   }
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
-  const auto got = beam_test(u, media, ob, db, n, {radius, kernel, estimator, min_depth, max_depth});
+  spm::test::VolumeTestSettings t;
+  t.kernel = kernel;
+  t.estimator = estimator;
+  t.min_depth = min_depth;
+  t.max_depth = max_depth;
+  const auto got = spm::test::volume_test(u, media, ob, db, n, t);
   int nonzero = 0;
   for (int i = 0; i < n; ++i) {
     const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
@@ -265,19 +181,19 @@ TEST(BeamEstimate, ABlocksSegmentsShareOnlyANearbyEstimate) {
     limits.push_back(e.limit);
   }
   auto& dev = spm::test::device();
-  const VolumeBuffers u = upload(dev, records, radius);
+  const spm::test::TableBuffers u(dev, spm::test::sphere_table(records, radius));
   const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{medium});
   const int n = int(q.size());
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs),
                    lb = dev.upload("depth_limits", limits);
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
-  cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_beam_test");
+  cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_volume_test");
   const cl::Buffer patches = dev.upload("patches", std::vector<SpmPatch>(1));
-  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("item_pos", u.pos),
-                spm::arg("items", u.items), spm::arg("records", u.records), spm::arg("media", media),
-                spm::arg("patches", patches), spm::arg("origins", ob), spm::arg("directions", db), spm::arg("depth_limits", lb),
-                spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)),
-                spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
+  spm::set_args(k, u, spm::arg("media", media), spm::arg("patches", patches), spm::arg("origins", ob),
+                spm::arg("directions", db), spm::arg("depth_limits", lb), spm::arg("out", out),
+                spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)),
+                spm::arg("reader", cl_uint(SPM_READ_CAMERA)), spm::arg("radius", radius),
+                spm::arg("density_kernel", cl_uint(kernel)), spm::arg("estimator", cl_uint(SPM_ESTIMATOR_BRE)));
   dev.launch(k, 1);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<dvec3> own;
@@ -325,18 +241,28 @@ TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
   reach.hi = glm::vec3(1.0f + radius);
   spm::MapParts parts;
   parts.volume = records;
-  const spm::MapGridData data = spm::map_grid_data(parts, radius, radius, radius, radius, false, false, reach);
-  ASSERT_EQ(data.volume_records.size() + data.outer_records.size(), records.size());
+  spm::PassRadii radii;
+  radii.radius = radii.volume_radius = radii.caustic_volume_radius = radii.beam_radius = radius;
+  const spm::MapGridData data = spm::map_grid_data(parts, radii, false, reach);
+  ASSERT_EQ(data.volume_records.size(), records.size());
+  const size_t volume_row = spm::test::role_row("volume"), outer_row = spm::test::role_row("outer");
+  const std::vector<uint32_t> inner = spm::test::distinct(spm::test::listed(data, volume_row)),
+                              outer = spm::test::distinct(spm::test::listed(data, outer_row));
+  ASSERT_EQ(inner.size() + outer.size(), records.size());
   // The core: the bounds grown to cbrt(30,000) = 31 cells of 2r, +-1.55.
   const spm::QueryBounds fine = spm::volume_core(reach, records.size(), radius);
   EXPECT_NEAR(fine.hi.x, 0.5f * std::cbrt(30000.0f) * 2.0f * radius, 1e-5f);
   EXPECT_EQ(fine.lo.y, -fine.hi.y);
-  for (const auto& r : data.volume_records) EXPECT_TRUE(fine.contains(r.position));
-  for (const auto& r : data.outer_records) EXPECT_FALSE(fine.contains(r.position));
-  EXPECT_GT(data.outer_records.size(), records.size() / 5);
+  std::vector<SpmVolumeRecord> core_records;
+  for (uint32_t i : inner) {
+    EXPECT_TRUE(fine.contains(data.volume_records[i].position));
+    core_records.push_back(data.volume_records[i]);
+  }
+  for (uint32_t i : outer) EXPECT_FALSE(fine.contains(data.volume_records[i].position));
+  EXPECT_GT(outer.size(), records.size() / 5);
   // The scene's grid keeps cells of 2r; one grid over everything would not.
-  EXPECT_LE(data.volume.info.cell, 2.0f * radius * 1.001f);
-  EXPECT_GT(spm::volume_grid(records, radius).info.cell, 20.0f * radius);
+  EXPECT_LE(data.grids[volume_row].info.cell, 2.0f * radius * 1.001f);
+  EXPECT_GT(spm::volume_grid(records, 0, records.size(), radius).info.cell, 20.0f * radius);
 
   auto& dev = spm::test::device();
   const cl::Buffer media = dev.upload("media", std::vector<SpmMedium>{medium});
@@ -353,24 +279,15 @@ TEST(BeamEstimate, RecordsFarFromTheSceneGetAGridOfTheirOwn) {
     dirs[i] = {{d.x, d.y, d.z, t1}};
   }
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
-  std::vector<cl_float4> sum(n, cl_float4{{0.0f, 0.0f, 0.0f, 0.0f}});
-  const std::pair<const spm::RecordGrid*, const std::vector<SpmVolumeRecord>*> grids[2] = {
-      {&data.volume, &data.volume_records}, {&data.outer, &data.outer_records}};
-  for (const auto& [grid, recs] : grids) {
-    BeamTestSettings t;
-    t.radius = radius;
-    const auto got = beam_test(upload(dev, *grid, *recs), media, ob, db, n, t);
-    for (int i = 0; i < n; ++i) {
-      for (int c = 0; c < 3; ++c) sum[i].s[c] += got[i].s[c];
-    }
-  }
+  // The camera reads both grids (map_grids.cpp's roles).
+  const auto sum = spm::test::volume_test(data, media, ob, db, n, spm::test::VolumeTestSettings{});
   int outer_rays = 0;
   for (int i = 0; i < n; ++i) {
     const dvec3 o(origins[i].s[0], origins[i].s[1], origins[i].s[2]);
     const dvec3 d(dirs[i].s[0], dirs[i].s[1], dirs[i].s[2]);
     const dvec3 ref = beam_reference(records, medium, 0, o, d, 0.0, dirs[i].s[3], radius, 0, 0, 0u, SPM_NONE);
     const dvec3 core_only =
-        beam_reference(data.volume_records, medium, 0, o, d, 0.0, dirs[i].s[3], radius, 0, 0, 0u, SPM_NONE);
+        beam_reference(core_records, medium, 0, o, d, 0.0, dirs[i].s[3], radius, 0, 0, 0u, SPM_NONE);
     if (ref.x > core_only.x * (1.0 + 1e-3)) ++outer_rays;
     for (int c = 0; c < 3; ++c) {
       EXPECT_NEAR(sum[i].s[c], ref[c], 1e-4 * std::abs(ref[c]) + 1e-9) << "ray " << i << " channel " << c;
@@ -577,11 +494,10 @@ void expect_disks_given_back(const spm::SceneTables& tables, bool wall) {
   auto& dev = spm::test::device();
   const cl::Buffer media = clear_medium(dev);
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
-  BeamTestSettings t;
-  t.radius = radius;
-  const auto plain = beam_test(upload(dev, records, radius), media, ob, db, n, t);
+  spm::test::VolumeTestSettings t;
+  const auto plain = spm::test::volume_test(spm::test::sphere_table(records, radius), media, ob, db, n, t);
   t.walls = tables.patches;
-  const auto with = beam_test(upload(dev, mirrored, radius), media, ob, db, n, t);
+  const auto with = spm::test::volume_test(spm::test::sphere_table(mirrored, radius), media, ob, db, n, t);
 
   // The part of a disk of radius r around a point at height z above the
   // wall, its plane at angle a to the wall, that lies above z = 0 (a
@@ -659,10 +575,9 @@ TEST(BeamEstimate, WallImagesKeepEachSideOfASheetToItself) {
   auto& dev = spm::test::device();
   const cl::Buffer media = clear_medium(dev);
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
-  BeamTestSettings t;
-  t.radius = radius;
+  spm::test::VolumeTestSettings t;
   t.walls = tables.patches;
-  const auto got = beam_test(upload(dev, records, radius), media, ob, db, n, t);
+  const auto got = spm::test::volume_test(spm::test::sphere_table(records, radius), media, ob, db, n, t);
   for (int g = 0; g < 6; ++g) {
     const double density = rho[g < 3 ? 0 : 1];
     double mean = 0.0;
@@ -717,8 +632,8 @@ TEST(SurfaceEstimate, EqualsTheBruteForceSum) {
         for (uint32_t i : used) centres.push_back(glm::vec3(v3(records[i].position)));
         const spm::RecordGrid grid = cell == spm::kSurfaceCell ? spm::surface_grid(records.data(), used, radius)
                                                                : spm::build_point_grid(centres, cell * radius);
-        const SurfaceBuffers up = upload(dev, records, used, grid);
-        set_surface_test_args(k, up, pb, nb, none, out, n, radius, kernel, max_depth);
+        const spm::test::TableBuffers up(dev, spm::test::disk_table(records, used, grid, radius));
+        set_surface_test_args(k, up, pb, nb, none, out, n, kernel, max_depth);
         dev.launch(k, n);
         const auto got = dev.download<cl_float4>(out, n);
         for (int i = 0; i < n; ++i) {
@@ -791,18 +706,19 @@ TEST(SurfaceEstimate, APixelsSamplesShareOnlyANearbyEstimate) {
   }
   auto& dev = spm::test::device();
   const auto used = spm::used_surface_records(records.data(), records.size(), false);
-  const SurfaceBuffers up_buf = upload(dev, records, used, spm::surface_grid(records.data(), used, radius));
+  const spm::test::TableBuffers table(
+      dev, spm::test::disk_table(records, used, spm::surface_grid(records.data(), used, radius), radius));
   const int n = int(q.size());
   const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals),
                    lb = dev.upload("depth_limits", limits);
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_shared_surface_test");
   const PatchBuffers none = no_patches(dev, n);
-  spm::set_args(k, spm::arg("info", up_buf.info), spm::arg("cell_start", up_buf.start), spm::arg("item_pos", up_buf.pos),
-                spm::arg("item_flux", up_buf.flux), spm::arg("points", pb), spm::arg("normals", nb),
-                spm::arg("depth_limits", lb), spm::arg("patches", none.patches),
-                spm::arg("point_patch", none.point_patch), spm::arg("out", out), spm::arg("count", cl_uint(n)),
-                spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)));
+  spm::set_args(k, table, spm::arg("points", pb), spm::arg("normals", nb), spm::arg("depth_limits", lb),
+                spm::arg("patches", none.patches), spm::arg("point_patch", none.point_patch), spm::arg("out", out),
+                spm::arg("count", cl_uint(n)), spm::arg("reader", cl_uint(SPM_READ_VERTEX)),
+                spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
+                spm::arg("estimator", cl_uint(SPM_ESTIMATOR_BRE)));
   dev.launch(k, 1);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<dvec3> own;
@@ -853,7 +769,8 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   }
   auto& dev = spm::test::device();
   const std::vector<uint32_t> all = all_of(records);
-  const SurfaceBuffers up = upload(dev, records, all, spm::surface_grid(records.data(), all, radius));
+  const spm::RecordGrid grid = spm::surface_grid(records.data(), all, radius);
+  const spm::test::TableBuffers up(dev, spm::test::disk_table(records, all, grid, radius));
   const int n = 200;
   std::vector<cl_float4> points(n), normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
   for (auto& p : points) p = {{radius + (side - 2 * radius) * u(rng), 0.0f, radius + (side - 2 * radius) * u(rng), 0}};
@@ -861,7 +778,7 @@ TEST(SurfaceEstimate, UniformPhotonsOnAPlaneGiveTheirFluxDensity) {
   const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
   cl::Kernel k = dev.kernel("spm_estimate", "spm_surface_test");
   const PatchBuffers none = no_patches(dev, n);
-  set_surface_test_args(k, up, pb, nb, none, out, n, radius, 0, SPM_NONE);
+  set_surface_test_args(k, up, pb, nb, none, out, n, 0, SPM_NONE);
   dev.launch(k, n);
   const auto got = dev.download<cl_float4>(out, n);
   std::vector<double> estimates;
@@ -931,14 +848,15 @@ TEST(SurfaceEstimate, PatchEdgesReflectTheDisk) {
     const auto estimate = [&](const std::vector<SpmSurfaceRecord>& recs, const std::vector<cl_float4>& points,
                               const SpmPatch* p) {
       const std::vector<uint32_t> all = all_of(recs);
-      const SurfaceBuffers up = upload(dev, recs, all, spm::surface_grid(recs.data(), all, radius));
+      const spm::RecordGrid grid = spm::surface_grid(recs.data(), all, radius);
+      const spm::test::TableBuffers up(dev, spm::test::disk_table(recs, all, grid, radius));
       const int n = int(points.size());
       const std::vector<cl_float4> normals(n, cl_float4{{0.0f, 1.0f, 0.0f, 0.0f}});
       const PatchBuffers patches{dev.upload("patches", std::vector<SpmPatch>{p ? *p : SpmPatch{}}),
                                  dev.upload("point_patch", std::vector<cl_uint>(n, p ? 0u : SPM_NONE))};
       const cl::Buffer pb = dev.upload("points", points), nb = dev.upload("normals", normals);
       const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
-      set_surface_test_args(k, up, pb, nb, patches, out, n, radius, int(seed % 2), SPM_NONE);
+      set_surface_test_args(k, up, pb, nb, patches, out, n, int(seed % 2), SPM_NONE);
       dev.launch(k, n);
       std::vector<double> v;
       for (const auto& g : dev.download<cl_float4>(out, n)) v.push_back(g.s[0]);

@@ -13,6 +13,7 @@
 #include "spm/map_grids.h"
 #include "spm/propagate.h"
 #include "spm/record_grid.h"
+#include "map_table.h"
 #include "test_support.h"
 
 namespace {
@@ -70,36 +71,21 @@ Bounds beam_reference(const std::vector<SpmBeam>& beams, const SpmMedium& m, int
   return out;
 }
 
-// The beams as spm_gather binds them.
-struct BeamBuffers {
-  cl::Buffer info, start, items, beams;
-};
-
-BeamBuffers upload(spm::Device& dev, const std::vector<SpmBeam>& beams, float radius) {
-  const spm::RecordGrid grid = spm::beam_grid(beams, radius);
-  return {dev.upload("beam_info", std::vector<SpmGridInfo>{grid.info}), dev.upload("beam_start", grid.cell_start),
-          dev.upload("beam_items", grid.items), dev.upload("beams", beams)};
-}
-
-// Runs spm_stream_beam_test over the rays (origin xyz + t0, direction xyz
-// + t1); per ray the estimate (xyz) and the beams examined (w).
+// Runs spm_volume_test over the rays (origin xyz + t0, direction xyz
+// + t1) through a table of the beams' capsule grid alone; per ray the
+// estimate (xyz) and the beams examined (w).
 std::vector<cl_float4> estimate(const std::vector<SpmBeam>& beams, const std::vector<SpmMedium>& media,
                                 const std::vector<cl_float4>& origins, const std::vector<cl_float4>& dirs, float radius,
                                 int kernel, uint32_t min_depth, uint32_t max_depth) {
   auto& dev = spm::test::device();
-  const BeamBuffers u = upload(dev, beams, radius);
   const cl::Buffer mb = dev.upload("media", media);
   const cl::Buffer ob = dev.upload("origins", origins), db = dev.upload("directions", dirs);
-  const size_t n = origins.size();
-  const spm::DeviceBuffer out = dev.buffer(sizeof(cl_float4) * n, "estimates", CL_MEM_WRITE_ONLY);
-  cl::Kernel k = dev.kernel("spm_estimate", "spm_stream_beam_test");
-  spm::set_args(k, spm::arg("info", u.info), spm::arg("cell_start", u.start), spm::arg("items", u.items),
-                spm::arg("beams", u.beams), spm::arg("media", mb), spm::arg("origins", ob), spm::arg("directions", db),
-                spm::arg("out", out), spm::arg("count", cl_uint(n)), spm::arg("medium", cl_int(0)),
-                spm::arg("radius", radius), spm::arg("density_kernel", cl_uint(kernel)),
-                spm::arg("min_rec_depth", cl_uint(min_depth)), spm::arg("max_rec_depth", cl_uint(max_depth)));
-  dev.launch(k, n);
-  return dev.download<cl_float4>(out, n);
+  spm::test::VolumeTestSettings t;
+  t.kernel = kernel;
+  t.estimator = SPM_ESTIMATOR_BEAMS;
+  t.min_depth = min_depth;
+  t.max_depth = max_depth;
+  return spm::test::volume_test(spm::test::capsule_table(beams, radius), mb, ob, db, int(origins.size()), t);
 }
 
 class StreamBeamEstimate : public ::testing::TestWithParam<std::tuple<int, uint32_t>> {};

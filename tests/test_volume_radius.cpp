@@ -24,6 +24,7 @@
 #include "render/render.h"
 #include "spm/map_grids.h"
 #include "scene/loader.h"
+#include "map_table.h"
 #include "test_support.h"
 
 namespace {
@@ -106,31 +107,40 @@ TEST(VolumeRadius, CausticRecordsGetAGridOfTheirOwn) {
   reach.lo = glm::vec3(-1.2f);
   reach.hi = glm::vec3(1.2f);
   const float radius = 0.02f, volume_radius = 0.06f, caustic_radius = 0.03f;
-  const spm::MapGridData d =
-      spm::map_grid_data(parts, radius, volume_radius, caustic_radius, radius, true, true, reach);
+  spm::PassRadii radii;
+  radii.radius = radii.beam_radius = radius;
+  radii.volume_radius = volume_radius;
+  radii.caustic_volume_radius = caustic_radius;
+  radii.final_gather = true;
+  const spm::MapGridData d = spm::map_grid_data(parts, radii, true, reach);
   ASSERT_EQ(d.volume_records.size(), parts.volume.size());
-  ASSERT_TRUE(d.outer_records.empty());
-  const auto listed = [&](const spm::RecordGrid& g) {
-    std::vector<uint32_t> ids(g.items);
-    std::sort(ids.begin(), ids.end());
-    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-    return ids;
-  };
-  const std::vector<uint32_t> caustic = listed(d.volume_caustic), rest = listed(d.volume);
+  using spm::test::distinct;
+  using spm::test::listed;
+  using spm::test::role_row;
+  EXPECT_TRUE(listed(d, role_row("outer")).empty());
+  const size_t caustic_row = role_row("volume_caustic"), volume_row = role_row("volume");
+  const std::vector<uint32_t> caustic = distinct(listed(d, caustic_row)), rest = distinct(listed(d, volume_row));
   EXPECT_EQ(caustic.size(), flagged);
   EXPECT_EQ(rest.size(), parts.volume.size() - flagged);
   for (uint32_t i : caustic) EXPECT_TRUE(d.volume_records[i].flags & SPM_RECORD_CAUSTIC);
   for (uint32_t i : rest) EXPECT_FALSE(d.volume_records[i].flags & SPM_RECORD_CAUSTIC);
-  EXPECT_EQ(listed(d.gather).size(), parts.volume.size());
-  // Cells of twice each grid's radius (record_grid.h); an item's position is its record's.
-  EXPECT_NEAR(d.volume_caustic.info.cell, 2.0f * caustic_radius, 1e-6f);
-  EXPECT_NEAR(d.volume.info.cell, 2.0f * volume_radius, 1e-6f);
-  for (size_t k = 0; k < d.volume_caustic.items.size(); ++k) {
-    EXPECT_EQ(d.volume_caustic_pos[k].s[0], d.volume_records[d.volume_caustic.items[k]].position[0]);
+  EXPECT_EQ(distinct(listed(d, role_row("gather_volume"))).size(), parts.volume.size());
+  // Cells of twice each grid's radius (record_grid.h), read with that radius.
+  EXPECT_NEAR(d.grids[caustic_row].info.cell, 2.0f * caustic_radius, 1e-6f);
+  EXPECT_NEAR(d.grids[volume_row].info.cell, 2.0f * volume_radius, 1e-6f);
+  EXPECT_EQ(d.grids[caustic_row].radius[SPM_READ_CAMERA], caustic_radius);
+  EXPECT_EQ(d.grids[volume_row].radius[SPM_READ_CAMERA], volume_radius);
+  // An item's position is its record's.
+  const SpmMapGrid& g = d.grids[caustic_row];
+  const uint32_t first = d.grid_cells[g.first_cell];
+  const std::vector<uint32_t> items = listed(d, caustic_row);
+  for (size_t k = 0; k < items.size(); ++k) {
+    EXPECT_EQ(d.grid_pos[first + k].s[0], d.volume_records[items[k]].position[0]);
   }
-  const spm::MapGridData one = spm::map_grid_data(parts, radius, volume_radius, volume_radius, radius, true, true, reach);
-  EXPECT_EQ(one.volume_caustic.info.records, 0u);
-  EXPECT_EQ(listed(one.volume).size(), parts.volume.size());
+  radii.caustic_volume_radius = volume_radius;
+  const spm::MapGridData one = spm::map_grid_data(parts, radii, true, reach);
+  EXPECT_EQ(one.grids[caustic_row].info.records, 0u);
+  EXPECT_EQ(distinct(listed(one, volume_row)).size(), parts.volume.size());
 }
 
 // A light inside a glass sphere in fog: every stream leaves the glass at

@@ -161,9 +161,14 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     const size_t first = maps.surface.size() * k / parts;
     part.surface = maps.surface.data() + first;
     part.surface_count = maps.surface.size() * (k + 1) / parts - first;
-    MapGridData data =
-        map_grid_data(std::move(part), radius, volume_radius, caustic_volume_radius(radius), beam_radius,
-                      skip_direct, final_gather_, reach, wall_images_ ? &walls_ : nullptr);
+    PassRadii radii;
+    radii.radius = radius;
+    radii.volume_radius = volume_radius;
+    radii.caustic_volume_radius = caustic_volume_radius(radius);
+    radii.beam_radius = beam_radius;
+    radii.final_gather = final_gather_;
+    radii.beams = beams;
+    MapGridData data = map_grid_data(std::move(part), radii, skip_direct, reach, wall_images_ ? &walls_ : nullptr);
     if (data.bytes() > maps_budget_) {
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
@@ -184,6 +189,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
       continue;
     }
     const MapGrids grids(device_, data);
+    const cl_uint rows = cl_uint(data.grids.size());
     data = MapGridData{};
     out.grid_seconds += stages.lap();
     stages.stage("grid", t);
@@ -195,10 +201,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.max_depth = max_depth;
     params.radius = radius;
     params.volume_radius = volume_radius;
-    params.gather_volume_radius = final_gather_ ? std::min(radius, volume_radius) : volume_radius;
-    params.caustic_volume_radius = caustic_volume_radius(radius);
     params.gather_aim = aimed_ ? kGatherAim : 0.0f;
-    params.beam_radius = beam_radius;
+    params.grids = rows;
     params.density_kernel = density_kernel_;
     params.estimator = estimator_;
     params.direct = direct_;

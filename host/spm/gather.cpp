@@ -1,6 +1,7 @@
 #include "spm/gather.h"
 
 #include <algorithm>
+#include <cstring>
 
 namespace spm {
 
@@ -25,14 +26,13 @@ Gather::Gather(Device& device, const GpuScene& scene, size_t width, size_t pixel
       kernel_(device.kernel("spm_gather", "spm_gather")),
       chain_kernel_(device.kernel("spm_gather", "spm_chain_pixels")),
       film_(device.buffer(sizeof(cl_float4) * tile_, "film", CL_MEM_WRITE_ONLY)),
-      sphere_tests_(device.buffer(sizeof(cl_uint) * tile_, "sphere_tests", CL_MEM_WRITE_ONLY)),
       errors_(device.buffer(sizeof(cl_uint), "errors")),
       chain_pixels_(device.buffer(sizeof(cl_uchar) * tile_, "chain_pixels")) {
   const cl_uint no_error = 0;
   device_.queue().enqueueWriteBuffer(errors_, CL_TRUE, 0, sizeof no_error, &no_error);
 }
 
-uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& rgb) {
+uint64_t Gather::run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb) {
   // The film of a whole image may not fit one allocation: tiles of pixels.
   uint64_t tests = 0;
   for (size_t first = 0; first < pixels_; first += tile_) {
@@ -44,9 +44,10 @@ uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::
       device_.launch(chain_kernel_, count);
       chain_tile_ = first;
     }
+    params.first_pixel = cl_uint(first);
+    params.count = cl_uint(count);
     set_args(kernel_, scene_, arg("params", params), arg("camera", scene_.camera()), arg("film", film_),
-             arg("sphere_tests", sphere_tests_), arg("errors", errors_), arg("chain_pixels", chain_pixels_),
-             arg("first_pixel", cl_uint(first)), arg("count", cl_uint(count)), grids);
+             arg("errors", errors_), arg("chain_pixels", chain_pixels_), grids);
     // A work-item per block of SPM_GATHER_BLOCK^2 pixels, over the block
     // rows the tile touches (spm_gather.cl).
     const size_t block_rows = (first + count - 1) / width_ / SPM_GATHER_BLOCK - first / width_ / SPM_GATHER_BLOCK + 1;
@@ -54,8 +55,10 @@ uint64_t Gather::run(const MapGrids& grids, const SpmGatherParams& params, std::
     const auto film = device_.download<cl_float4>(film_, count);
     for (size_t i = 0; i < count; ++i) {
       for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];
+      cl_uint n;
+      std::memcpy(&n, &film[i].s[3], sizeof n);
+      tests += n;
     }
-    for (cl_uint n : device_.download<cl_uint>(sphere_tests_, count)) tests += n;
   }
   return tests;
 }

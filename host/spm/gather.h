@@ -15,9 +15,10 @@ namespace spm {
 
 class Gather {
  public:
-  // Device bytes per pixel of a tile: its film entry, sphere-test count and
-  // whether its emission comes from emission chains (spm_chain_pixels).
-  static constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uint) + sizeof(cl_uchar);
+  // Device bytes per pixel of a tile: its film entry (radiance, and the
+  // sphere tests in w) and whether its emission comes from emission chains
+  // (spm_chain_pixels).
+  static constexpr size_t kBytesPerPixel = sizeof(cl_float4) + sizeof(cl_uchar);
 
   // An image `width` pixels wide of `pixels` pixels, gathered in launches of
   // at most kMaxTile pixels whose buffers fit the device's largest
@@ -27,8 +28,9 @@ class Gather {
   size_t bytes() const { return tile_ * kBytesPerPixel + sizeof(cl_uint); }
 
   // Adds the mean radiance of each pixel's samples over `grids` to rgb
-  // (pixels x 3); returns the sphere tests the estimates made.
-  uint64_t run(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& rgb);
+  // (pixels x 3); returns the sphere tests the estimates made. `params`'s
+  // tile (first_pixel, count) is set here.
+  uint64_t run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb);
 
   // Whether a pixel's radiance was NaN or infinite since the last call.
   bool nonfinite();
@@ -38,7 +40,7 @@ class Gather {
   const GpuScene& scene_;
   size_t width_ = 0, pixels_ = 0, tile_ = 0;
   cl::Kernel kernel_, chain_kernel_;
-  DeviceBuffer film_, sphere_tests_, errors_, chain_pixels_;
+  DeviceBuffer film_, errors_, chain_pixels_;
   // The first pixel of the tile whose flags chain_pixels_ holds; none yet.
   size_t chain_tile_ = SIZE_MAX;
 };

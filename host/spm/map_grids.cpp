@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstring>
 #include <future>
+#include <stdexcept>
+
+#include "util/errors.h"
 
 namespace spm {
 
@@ -31,27 +34,105 @@ float pack_normal(const float* n) {
   return f;
 }
 
-// value(record) for the record each grid item lists, in item order.
-template <class Record, class Value>
-std::vector<cl_float4> per_item(const RecordGrid& grid, const std::vector<Record>& records, Value value) {
-  std::vector<cl_float4> out(grid.items.size());
-  for (size_t k = 0; k < out.size(); ++k) out[k] = value(records[grid.items[k]]);
-  return out;
+// An index as the bits of a float, for an item's w (as_uint in the kernels).
+float index_bits(uint32_t i) {
+  float f;
+  std::memcpy(&f, &i, sizeof f);
+  return f;
 }
 
-// The sphere grid of radius r over records[first, last) and its items'
-// positions; the items index `records`.
-void sphere_grid_of(const std::vector<SpmVolumeRecord>& records, size_t first, size_t last, float r,
-                    RecordGrid& grid, std::vector<cl_float4>& pos) {
-  grid = build_sphere_grid(positions(records, first, last), r);
-  for (uint32_t& item : grid.items) item += uint32_t(first);
-  pos = volume_item_positions(grid, records);
+using Radii = MapGridData::Radii;
+
+// The largest of a row's radii: the one its grid is built for, since a
+// grid of radius R serves any radius up to R; 0 when nothing reads it.
+float build_radius(const Radii& radii) { return *std::max_element(radii.begin(), radii.end()); }
+
+// Writes the items of `grid` from pos[0] (and, for disks, flux[0]): a
+// sphere grid's over `volume` or a capsule grid's over beams, its record's
+// position and index; a disk grid's over surface[used[i]], its position
+// with the packed normal in w (kernels/lib/estimate.h, unpack_normal) and
+// its flux with its depth in w, so that the surface estimate never reads
+// the records themselves. One pass for both arrays: each reads its record
+// once.
+void fill_items(const RecordGrid& grid, cl_uint kind, const std::vector<SpmVolumeRecord>& volume,
+                const SpmSurfaceRecord* surface, const std::vector<uint32_t>* used, cl_float4* pos, cl_float4* flux) {
+  for (size_t k = 0; k < grid.items.size(); ++k) {
+    const uint32_t i = grid.items[k];
+    if (kind == SPM_GRID_SPHERES) {
+      const SpmVolumeRecord& r = volume[i];
+      pos[k] = cl_float4{{r.position[0], r.position[1], r.position[2], index_bits(i)}};
+    } else if (kind == SPM_GRID_CAPSULES) {
+      pos[k] = cl_float4{{0.0f, 0.0f, 0.0f, index_bits(i)}};
+    } else {
+      const SpmSurfaceRecord& r = surface[(*used)[i]];
+      pos[k] = cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
+      flux[k] = cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
+    }
+  }
+}
+
+// The readers of each role (SPM_READ_*). Without a final gather there
+// are no gather rays, and the camera reads the whole surface map at its
+// vertex; with one, the caustic records there and at a gather ray's end
+// near its start (SPM_GATHER_NEAR, where the path goes on), and the whole
+// map at its other ends. The gather rays read the volume records with
+// the radius where it is below the volume radius, through the
+// gather_volume grid over the core's records (`own`), else as the camera
+// does (docs/METHOD.md 17).
+bool own_gather_grid(const PassRadii& p) { return p.final_gather && p.radius < p.volume_radius; }
+// Whether the caustic volume records have a grid of their own.
+bool split_caustic(const PassRadii& p) { return p.caustic_volume_radius < p.volume_radius; }
+
+Radii surface_radii(const PassRadii& p) {
+  return {0.0f, 0.0f, p.final_gather ? 0.0f : p.radius, p.final_gather ? p.radius : 0.0f, 0.0f};
+}
+Radii caustic_radii(const PassRadii& p) {
+  const float r = p.final_gather ? p.radius : 0.0f;
+  return {0.0f, 0.0f, r, 0.0f, r};
+}
+Radii volume_radii(const PassRadii& p) {
+  if (p.beams) return {};
+  return {p.volume_radius, p.final_gather && !own_gather_grid(p) ? p.volume_radius : 0.0f, 0.0f, 0.0f, 0.0f};
+}
+Radii gather_volume_radii(const PassRadii& p) {
+  if (p.beams || !own_gather_grid(p)) return {};
+  return {0.0f, p.radius, 0.0f, 0.0f, 0.0f};
+}
+Radii outer_radii(const PassRadii& p) {
+  if (p.beams) return {};
+  return {p.volume_radius, p.final_gather ? std::min(p.radius, p.volume_radius) : 0.0f, 0.0f, 0.0f, 0.0f};
+}
+Radii volume_caustic_radii(const PassRadii& p) {
+  if (p.beams || !split_caustic(p)) return {};
+  const float r = std::min(p.caustic_volume_radius, p.volume_radius);
+  return {r, p.final_gather && !own_gather_grid(p) ? r : 0.0f, 0.0f, 0.0f, 0.0f};
+}
+Radii beam_radii(const PassRadii& p) {
+  if (!p.beams) return {};
+  return {p.beam_radius, p.final_gather ? p.beam_radius : 0.0f, 0.0f, 0.0f, 0.0f};
 }
 
 }  // namespace
 
-RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius) {
-  return build_sphere_grid(positions(records, 0, records.size()), radius);
+const std::vector<GridRole>& grid_roles() {
+  // The disk grids first (MapGridData::add). A reader sums the volume
+  // grids it reads in this order.
+  static const std::vector<GridRole> roles = {
+      {"surface", SPM_GRID_DISKS, GridRecords::Surface, surface_radii},
+      {"caustic", SPM_GRID_DISKS, GridRecords::SurfaceCaustic, caustic_radii},
+      {"volume", SPM_GRID_SPHERES, GridRecords::Volume, volume_radii},
+      {"gather_volume", SPM_GRID_SPHERES, GridRecords::VolumeCore, gather_volume_radii},
+      {"outer", SPM_GRID_SPHERES, GridRecords::VolumeOuter, outer_radii},
+      {"volume_caustic", SPM_GRID_SPHERES, GridRecords::VolumeCaustic, volume_caustic_radii},
+      {"beams", SPM_GRID_CAPSULES, GridRecords::Beams, beam_radii},
+  };
+  return roles;
+}
+
+RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, size_t first, size_t last, float radius) {
+  RecordGrid grid = build_sphere_grid(positions(records, first, last), radius);
+  for (uint32_t& item : grid.items) item += uint32_t(first);
+  return grid;
 }
 
 RecordGrid surface_grid(const SpmSurfaceRecord* records, const std::vector<uint32_t>& used, float radius) {
@@ -71,25 +152,6 @@ RecordGrid beam_grid(const std::vector<SpmBeam>& beams, float radius) {
     ends.push_back(o + b.length * d);
   }
   return build_capsule_grid(starts, ends, radius, kBeamCell * radius);
-}
-
-std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records) {
-  return per_item(grid, records, [](const SpmVolumeRecord& r) {
-    return cl_float4{{r.position[0], r.position[1], r.position[2], float(r.depth)}};
-  });
-}
-
-SurfaceItems surface_items(const RecordGrid& grid, const SpmSurfaceRecord* records, const std::vector<uint32_t>& used) {
-  // One pass over the items for both arrays: each reads its record once.
-  SurfaceItems out;
-  out.pos.resize(grid.items.size());
-  out.flux.resize(grid.items.size());
-  for (size_t k = 0; k < grid.items.size(); ++k) {
-    const SpmSurfaceRecord& r = records[used[grid.items[k]]];
-    out.pos[k] = cl_float4{{r.position[0], r.position[1], r.position[2], pack_normal(r.normal)}};
-    out.flux[k] = cl_float4{{r.flux[0], r.flux[1], r.flux[2], float(r.depth_photon >> 16)}};
-  }
-  return out;
 }
 
 bool QueryBounds::contains(const float* p) const {
@@ -125,31 +187,57 @@ std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size
   return out;
 }
 
-template <class T>
-size_t vector_bytes(const std::vector<T>& v) {
-  return sizeof(T) * std::max<size_t>(1, v.size());  // Device::upload gives an empty table one element
-}
-
 size_t MapGridData::bytes() const {
-  return 2 * sizeof(SpmGridInfo) + vector_bytes(volume.cell_start) + vector_bytes(volume_pos) +
-         vector_bytes(volume.items) + vector_bytes(volume_records) + sizeof(SpmGridInfo) +
-         vector_bytes(gather.cell_start) + vector_bytes(gather_pos) + vector_bytes(gather.items) + sizeof(SpmGridInfo) +
-         vector_bytes(volume_caustic.cell_start) + vector_bytes(volume_caustic_pos) +
-         vector_bytes(volume_caustic.items) + sizeof(SpmGridInfo) +
-         vector_bytes(outer.cell_start) + vector_bytes(outer_pos) + vector_bytes(outer.items) +
-         vector_bytes(outer_records) + vector_bytes(surface.cell_start) +
-         vector_bytes(surface_pos) + vector_bytes(surface_flux) + sizeof(SpmGridInfo) + vector_bytes(beam.cell_start) +
-         vector_bytes(beam.items) + vector_bytes(beams) + sizeof(SpmGridInfo) + vector_bytes(caustic.cell_start) +
-         vector_bytes(caustic_pos) + vector_bytes(caustic_flux);
+  // Device::upload gives an empty buffer one element.
+  size_t n = 0;
+#define SPM_MAP_BYTES(type, name) n += sizeof(type) * std::max<size_t>(1, name.size());
+  SPM_MAP_BUFFERS(SPM_MAP_BYTES)
+#undef SPM_MAP_BYTES
+  return n;
 }
 
-MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float caustic_volume_radius,
-                          float beam_radius, bool skip_direct, bool final_gather, const QueryBounds& reach,
+size_t MapGridData::add_row(const RecordGrid& grid, cl_uint kind, const Radii& radii) {
+  if (kind == SPM_GRID_DISKS && grid_pos.size() != surface_flux.size()) {
+    throw std::logic_error("a disk grid after another kind: surface_flux would not run parallel to grid_pos");
+  }
+  const size_t base = grid_pos.size();
+  if (base + grid.items.size() > UINT32_MAX || grid_cells.size() + grid.cell_start.size() > UINT32_MAX) {
+    throw RuntimeError("the photon maps' grids list more items than 32-bit indices hold");
+  }
+  SpmMapGrid g{};
+  g.info = grid.info;
+  g.first_cell = cl_uint(grid_cells.size());
+  g.kind = kind;
+  std::copy(radii.begin(), radii.end(), g.radius);
+  grids.push_back(g);
+  grid_cells.reserve(grid_cells.size() + grid.cell_start.size());
+  for (uint32_t start : grid.cell_start) grid_cells.push_back(uint32_t(base) + start);
+  grid_pos.resize(base + grid.items.size());
+  if (kind == SPM_GRID_DISKS) surface_flux.resize(grid_pos.size());
+  return base;
+}
+
+void MapGridData::add_spheres(const RecordGrid& grid, const Radii& radii) {
+  const size_t base = add_row(grid, SPM_GRID_SPHERES, radii);
+  fill_items(grid, SPM_GRID_SPHERES, volume_records, nullptr, nullptr, &grid_pos[base], nullptr);
+}
+
+void MapGridData::add_capsules(const RecordGrid& grid, const Radii& radii) {
+  const size_t base = add_row(grid, SPM_GRID_CAPSULES, radii);
+  fill_items(grid, SPM_GRID_CAPSULES, volume_records, nullptr, nullptr, &grid_pos[base], nullptr);
+}
+
+void MapGridData::add_disks(const RecordGrid& grid, const SpmSurfaceRecord* records,
+                            const std::vector<uint32_t>& used, const Radii& radii) {
+  const size_t base = add_row(grid, SPM_GRID_DISKS, radii);
+  fill_items(grid, SPM_GRID_DISKS, volume_records, records, &used, &grid_pos[base], &surface_flux[base]);
+}
+
+MapGridData map_grid_data(MapParts maps, const PassRadii& radii, bool skip_direct, const QueryBounds& reach,
                           const WallImages* walls) {
-  MapGridData d;
   std::vector<SpmVolumeRecord>& volume = maps.volume;
   std::vector<SpmBeam>& beams = maps.beams;
-  if (skip_direct && !final_gather) {
+  if (skip_direct && !radii.final_gather) {
     // Single scattering comes from next-event estimation (spm_gather.cl,
     // inscatter_nee): a volume record or beam at path vertex 1 has no
     // earlier event. A final gather keeps them: its rays read single
@@ -160,91 +248,78 @@ MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, floa
     beams.erase(std::remove_if(beams.begin(), beams.end(), [](const SpmBeam& b) { return b.depth <= 1; }),
                 beams.end());
   }
-  if (walls) walls->add(volume, volume_radius);
+  if (walls) walls->add(volume, radii.volume_radius);
+  // The volume records in one array: the core's (those without and then
+  // those with SPM_RECORD_CAUSTIC, when they have a grid of their own),
+  // then the outer ones.
+  const QueryBounds core = volume_core(reach, volume.size(), radii.volume_radius);
+  const size_t core_end = size_t(std::stable_partition(volume.begin(), volume.end(),
+                                                       [&](const SpmVolumeRecord& r) {
+                                                         return core.contains(r.position);
+                                                       }) -
+                                 volume.begin());
+  size_t focused = core_end;
+  if (split_caustic(radii)) {
+    focused = size_t(std::stable_partition(volume.begin(), volume.begin() + core_end,
+                                           [](const SpmVolumeRecord& r) { return !(r.flags & SPM_RECORD_CAUSTIC); }) -
+                     volume.begin());
+  }
   const std::vector<uint32_t> surface = used_surface_records(maps.surface, maps.surface_count, skip_direct, reach);
-  std::vector<uint32_t> caustic;
-  if (final_gather) {
+  std::vector<uint32_t> caustic;  // read with a final gather only (caustic_radii)
+  if (radii.final_gather) {
     for (uint32_t i : surface) {
       if (maps.surface[i].flags & SPM_RECORD_CAUSTIC) caustic.push_back(i);
     }
   }
-  std::vector<SpmVolumeRecord> outer;
-  const QueryBounds core = volume_core(reach, volume.size(), volume_radius);
-  const auto far = std::stable_partition(volume.begin(), volume.end(),
-                                         [&](const SpmVolumeRecord& r) { return core.contains(r.position); });
-  outer.assign(far, volume.end());
-  volume.erase(far, volume.end());
-  // The caustic records last, so that the volume grid's items index the
-  // records before them as they are and the caustic grid's need an offset.
-  size_t focused = volume.size();
-  if (caustic_volume_radius < volume_radius) {
-    focused = size_t(std::stable_partition(volume.begin(), volume.end(),
-                                           [](const SpmVolumeRecord& r) { return !(r.flags & SPM_RECORD_CAUSTIC); }) -
-                     volume.begin());
+  // Each role's grid on a thread of its own, then each row's items: they
+  // only read the records, and the device waits for all of them.
+  const std::vector<GridRole>& roles = grid_roles();
+  std::vector<Radii> readers;
+  for (const GridRole& role : roles) readers.push_back(role.radii(radii));
+  std::vector<std::future<RecordGrid>> built;
+  for (size_t i = 0; i < roles.size(); ++i) {
+    built.push_back(std::async(std::launch::async, [&, i]() -> RecordGrid {
+      const GridRole& role = roles[i];
+      const float r = build_radius(readers[i]);
+      if (!(r > 0.0f)) return build_point_grid({}, 1.0f);  // one empty cell: nothing reads it
+      switch (role.records) {
+        case GridRecords::Surface: return surface_grid(maps.surface, surface, r);
+        case GridRecords::SurfaceCaustic: return surface_grid(maps.surface, caustic, r);
+        case GridRecords::Volume: return volume_grid(volume, 0, focused, r);
+        case GridRecords::VolumeCore: return volume_grid(volume, 0, core_end, r);
+        case GridRecords::VolumeOuter: return volume_grid(volume, core_end, volume.size(), r);
+        case GridRecords::VolumeCaustic: return volume_grid(volume, focused, core_end, r);
+        case GridRecords::Beams: return beam_grid(beams, r);
+      }
+      throw std::logic_error("unknown grid role");
+    }));
   }
-  // The volume grid on a thread of its own, the others here: they only read
-  // the records, and the device waits for all of them (caustic_area's pass:
-  // 15 ms for the volume grid and its items against 25 ms for the rest).
-  std::future<void> volume_part = std::async(std::launch::async, [&] {
-    sphere_grid_of(volume, 0, focused, volume_radius, d.volume, d.volume_pos);
-  });
-  sphere_grid_of(volume, focused, volume.size(), std::min(caustic_volume_radius, volume_radius), d.volume_caustic,
-                 d.volume_caustic_pos);
-  if (final_gather && radius < volume_radius) {
-    d.gather = volume_grid(volume, radius);
-    d.gather_pos = volume_item_positions(d.gather, volume);
-  } else {
-    d.gather = volume_grid({}, volume_radius);
+  MapGridData d;
+  std::vector<RecordGrid> grids;
+  std::vector<size_t> bases;
+  for (size_t i = 0; i < roles.size(); ++i) {
+    grids.push_back(built[i].get());
+    bases.push_back(d.add_row(grids.back(), roles[i].kind, readers[i]));
   }
-  d.outer = volume_grid(outer, volume_radius);
-  d.surface = surface_grid(maps.surface, surface, radius);
-  d.caustic = surface_grid(maps.surface, caustic, radius);
-  d.beam = beam_grid(beams, beam_radius);
-  d.outer_pos = volume_item_positions(d.outer, outer);
-  SurfaceItems items = surface_items(d.surface, maps.surface, surface);
-  d.surface_pos = std::move(items.pos);
-  d.surface_flux = std::move(items.flux);
-  items = surface_items(d.caustic, maps.surface, caustic);
-  d.caustic_pos = std::move(items.pos);
-  d.caustic_flux = std::move(items.flux);
-  volume_part.get();
+  std::vector<std::future<void>> filled;
+  for (size_t i = 0; i < roles.size(); ++i) {
+    if (grids[i].items.empty()) continue;
+    const std::vector<uint32_t>* used = roles[i].records == GridRecords::Surface ? &surface : &caustic;
+    cl_float4* flux = roles[i].kind == SPM_GRID_DISKS ? &d.surface_flux[bases[i]] : nullptr;
+    filled.push_back(std::async(std::launch::async, fill_items, std::cref(grids[i]), roles[i].kind, std::cref(volume),
+                                maps.surface, used, &d.grid_pos[bases[i]], flux));
+  }
+  for (std::future<void>& f : filled) f.get();
   d.volume_records = std::move(volume);
-  d.outer_records = std::move(outer);
   d.beams = std::move(beams);
   return d;
 }
 
-MapGrids::MapGrids(Device& device, const MapGridData& d)
-    : volume_info(device.upload("volume_info", std::vector<SpmGridInfo>{d.volume.info})),
-      volume_start(device.upload("volume_start", d.volume.cell_start)),
-      volume_pos(device.upload("volume_pos", d.volume_pos)),
-      volume_items(device.upload("volume_items", d.volume.items)),
-      volume(device.upload("volume", d.volume_records)),
-      gather_info(device.upload("gather_info", std::vector<SpmGridInfo>{d.gather.info})),
-      gather_start(device.upload("gather_start", d.gather.cell_start)),
-      gather_pos(device.upload("gather_pos", d.gather_pos)),
-      gather_items(device.upload("gather_items", d.gather.items)),
-      volume_caustic_info(device.upload("volume_caustic_info", std::vector<SpmGridInfo>{d.volume_caustic.info})),
-      volume_caustic_start(device.upload("volume_caustic_start", d.volume_caustic.cell_start)),
-      volume_caustic_pos(device.upload("volume_caustic_pos", d.volume_caustic_pos)),
-      volume_caustic_items(device.upload("volume_caustic_items", d.volume_caustic.items)),
-      outer_info(device.upload("outer_info", std::vector<SpmGridInfo>{d.outer.info})),
-      outer_start(device.upload("outer_start", d.outer.cell_start)),
-      outer_pos(device.upload("outer_pos", d.outer_pos)),
-      outer_items(device.upload("outer_items", d.outer.items)),
-      outer(device.upload("outer", d.outer_records)),
-      surface_info(device.upload("surface_info", std::vector<SpmGridInfo>{d.surface.info})),
-      surface_start(device.upload("surface_start", d.surface.cell_start)),
-      surface_pos(device.upload("surface_pos", d.surface_pos)),
-      surface_flux(device.upload("surface_flux", d.surface_flux)),
-      beam_info(device.upload("beam_info", std::vector<SpmGridInfo>{d.beam.info})),
-      beam_start(device.upload("beam_start", d.beam.cell_start)),
-      beam_items(device.upload("beam_items", d.beam.items)),
-      beams(device.upload("beams", d.beams)),
-      caustic_info(device.upload("caustic_info", std::vector<SpmGridInfo>{d.caustic.info})),
-      caustic_start(device.upload("caustic_start", d.caustic.cell_start)),
-      caustic_pos(device.upload("caustic_pos", d.caustic_pos)),
-      caustic_flux(device.upload("caustic_flux", d.caustic_flux)) {}
+MapGrids::MapGrids(Device& device, const MapGridData& d) {
+#define SPM_MAP_UPLOAD(type, name) name = device.upload(#name, d.name);
+  SPM_MAP_BUFFERS(SPM_MAP_UPLOAD)
+#undef SPM_MAP_UPLOAD
+}
 
 cl_uint MapGrids::bind(cl::Kernel& k, cl_uint i) const {
 #define SPM_MAP_BIND(type, name) bind_arg(k, i++, #name, name);

@@ -3,6 +3,7 @@
 // bound as the list in kernels/spm_maps.h says.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -25,25 +26,12 @@ inline constexpr float kSurfaceCell = 1.0f;
 // in about pi (1 + sqrt(3)/2 kBeamCell)^2 L / (kBeamCell^3 r) cells.
 inline constexpr float kBeamCell = 1.5f;
 
-// The gather's grids: the volume map's sphere grid and the surface map's
-// point grid (host/spm/record_grid.h).
-RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, float radius);
+// The gather's grids: the volume map's sphere grid, the surface map's
+// point grid and the stream beams' capsule grid (host/spm/record_grid.h).
+RecordGrid volume_grid(const std::vector<SpmVolumeRecord>& records, size_t first, size_t last, float radius);
 // The surface grid lists records[used[i]] as item i.
 RecordGrid surface_grid(const SpmSurfaceRecord* records, const std::vector<uint32_t>& used, float radius);
 RecordGrid beam_grid(const std::vector<SpmBeam>& beams, float radius);
-
-// Grid items of the volume map: the listed record's position, its depth in w
-// (kernels/lib/estimate.h leaves out records deeper than max_depth allows).
-std::vector<cl_float4> volume_item_positions(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records);
-
-// Grid items of the surface map (a grid from surface_grid over `used`):
-// position with the packed normal in w (kernels/lib/estimate.h,
-// unpack_normal), and the record's flux with its depth in w, so that the
-// surface estimate never reads the records themselves.
-struct SurfaceItems {
-  std::vector<cl_float4> pos, flux;
-};
-SurfaceItems surface_items(const RecordGrid& grid, const SpmSurfaceRecord* records, const std::vector<uint32_t>& used);
 
 // The part of space the gather's queries can reach: the scene's bounds
 // grown by the radius. A photon that lands on a tangent plane outside it
@@ -68,19 +56,33 @@ QueryBounds volume_core(const QueryBounds& reach, size_t records, float radius);
 std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size_t count, bool skip_direct,
                                            const QueryBounds& reach = {});
 
-// The gather's grids of some map records, built on the host: the volume
-// map's sphere grid, the surface map's point grid and the stream beams'
-// capsule grid with their per-item arrays, as MapGrids uploads them.
+// The gather's map buffers on the host, one vector per entry of
+// SPM_MAP_BUFFERS (kernels/spm_maps.h): the grid table, the cells and items
+// all its rows share, and the records they list.
 struct MapGridData {
-  RecordGrid volume, gather, volume_caustic, outer, surface, beam, caustic;
-  std::vector<cl_float4> volume_pos, gather_pos, volume_caustic_pos, outer_pos, surface_pos, surface_flux, caustic_pos,
-      caustic_flux;
-  std::vector<SpmVolumeRecord> volume_records, outer_records;
-  std::vector<SpmBeam> beams;
+#define SPM_MAP_FIELD(type, name) std::vector<type> name;
+  SPM_MAP_BUFFERS(SPM_MAP_FIELD)
+#undef SPM_MAP_FIELD
   size_t bytes() const;  // device memory of the upload
+
+  // Appends `grid` as the table's next row, read with `radii` (SPM_READ_*;
+  // 0: not read). Its items list volume_records (spheres) or beams
+  // (capsules) by the grid's item indices, or, for disks, the surface
+  // records records[used[i]] for item i. Disk grids come before the
+  // others, so that surface_flux runs parallel to grid_pos.
+  using Radii = std::array<float, SPM_READERS>;
+  void add_spheres(const RecordGrid& grid, const Radii& radii);
+  void add_capsules(const RecordGrid& grid, const Radii& radii);
+  void add_disks(const RecordGrid& grid, const SpmSurfaceRecord* records, const std::vector<uint32_t>& used,
+                 const Radii& radii);
+
+  // The table's next row for `grid`, its cells appended and room made for
+  // its items, which the caller then writes (fill_items) from the index
+  // returned; map_grid_data writes its rows' items in parallel.
+  size_t add_row(const RecordGrid& grid, cl_uint kind, const Radii& radii);
 };
 
-// The records a pass's gather reads, and its radii.
+// The records a pass's gather reads.
 struct MapParts {
   std::vector<SpmVolumeRecord> volume;  // empty when the gather reads beams
   const SpmSurfaceRecord* surface = nullptr;  // [surface, surface + surface_count), not owned
@@ -88,38 +90,56 @@ struct MapParts {
   std::vector<SpmBeam> beams;           // empty unless the gather reads beams
 };
 
-// `surface` as the gather uses it (used_surface_records); with next-event
-// estimation (`skip_direct`) the surface records of streams without an
-// earlier event are left out, the final gather's rays included (they
-// estimate that light by next-event estimation too, spm_gather.cl
-// final_gather), and so are the volume records and beams of depth 1 unless
-// there is a final gather (`final_gather`), whose rays read single
-// scattering from them. With a final gather the caustic grid holds the
-// surface records flagged SPM_RECORD_CAUSTIC, read at the camera's vertex.
-// Volume records outside volume_core(reach) go to a grid of their own (`outer`): in a
+// What decides which reader reads which grid, and with what radius.
+struct PassRadii {
+  float radius = 0.0f;                 // the surface estimates' r
+  float volume_radius = 0.0f;          // the camera's volume records' kernel radius
+  float caustic_volume_radius = 0.0f;  // the camera's for caustic volume records
+  float beam_radius = 0.0f;            // the stream beams' 1D kernel radius
+  bool final_gather = false;
+  bool beams = false;  // the volume estimate reads stream beams, not records
+};
+
+// Which of the pass's records a role's grid lists (map_grids.cpp).
+enum class GridRecords { Surface, SurfaceCaustic, Volume, VolumeCore, VolumeOuter, VolumeCaustic, Beams };
+
+// One role of the gather's grid table: what its grid lists, as which kind
+// of grid, and the radius each reader reads it with in a pass.
+struct GridRole {
+  const char* name;
+  cl_uint kind;  // SPM_GRID_*
+  GridRecords records;
+  MapGridData::Radii (*radii)(const PassRadii&);
+};
+
+// The roles, in the order of the grid table's rows (map_grids.cpp).
+const std::vector<GridRole>& grid_roles();
+
+// The gather's grids of some map records, built on the host, one row per
+// role. With next-event estimation (`skip_direct`) the surface records of
+// streams without an earlier event are left out (used_surface_records),
+// the final gather's rays included (they estimate that light by next-event
+// estimation too, spm_gather.cl final_gather), and so are the volume
+// records and beams of depth 1 unless there is a final gather, whose rays
+// read single scattering from them. Volume records outside
+// volume_core(reach) go to a grid of their own (the `outer` role): in a
 // fog that fills all space they spread hundreds of radii beyond the scene,
 // and one grid over all of them, capped in cells, would have cells far
-// wider than 2r where the queries are (README "Why more streams cost the
-// fog box so much"). Each record is in one of the two grids, and the
-// gather sums both. The volume grids are over spheres of `volume_radius`,
-// the surface grids over disks of `radius`. With a final gather and a
-// volume radius above `radius`, the gather rays read the volume records
-// with `radius`, through a grid of their own over the records in the core
-// (`gather`; empty otherwise): one of `volume_radius` would make them walk
-// cells of 2 volume_radius, and their estimate is averaged over the
-// hemisphere, so the smaller radius costs them little variance (README
-// "A wider volume kernel by default"). With a `caustic_volume_radius`
-// below the volume radius, the records in the core flagged
-// SPM_RECORD_CAUSTIC, light that glass or a mirror focused, are listed in
-// a sphere grid of that radius (`volume_caustic`, its items indices into
-// the core's records, which end with them) instead of the volume grid:
-// the light the rest carries, scattered after a diffuse event, is smooth
-// enough for a kernel twice as wide, while a focused cone is not (README
-// "A kernel for focused light"). The gather rays' grid lists them all. With `walls`, the volume records
-// near them get their mirror images (WallImages::add).
-MapGridData map_grid_data(MapParts maps, float radius, float volume_radius, float caustic_volume_radius,
-                          float beam_radius, bool skip_direct, bool final_gather = false,
-                          const QueryBounds& reach = {}, const WallImages* walls = nullptr);
+// wider than 2r where the queries are (docs/METHOD.md 17). Each record is
+// in one of the two, and the camera's estimate sums both. With a caustic
+// volume radius below the volume radius, the core's records flagged
+// SPM_RECORD_CAUSTIC, light that glass or a mirror focused, get a sphere
+// grid of that radius instead of the volume grid: the light the rest
+// carries, scattered after a diffuse event, is smooth enough for a wider
+// kernel, while a focused cone is not. With a final gather and a volume
+// radius above the radius, the gather rays read the core's records with
+// the radius through a grid of their own over all of them: one of the
+// volume radius would make them walk cells of twice that, and their
+// estimate is averaged over the hemisphere, so the smaller radius costs
+// them little variance. With `walls`, the volume records near them get
+// their mirror images (WallImages::add).
+MapGridData map_grid_data(MapParts maps, const PassRadii& radii, bool skip_direct, const QueryBounds& reach = {},
+                          const WallImages* walls = nullptr);
 
 // The map buffers on the device, one per entry of SPM_MAP_BUFFERS, bound
 // under their names after the gather's own arguments.

@@ -40,17 +40,17 @@ inline float kernel_2d(uint density_kernel, float d2, float r2) {
  *   in a heterogeneous medium T and the albedo come from the segment's
  *   table `tab` (tab->n > 0; medium.h), else in closed form;
  * - paper: sum_i (n phi)_i / (pi r^2 (t1 - t0)), eq. (4) literally.
- * Records deeper than max_rec_depth (item_pos.w holds the depth) are left
- * out: their paths would be longer than max_depth (METHOD.md 10); records
- * shallower than min_rec_depth too (2: single scattering comes from
- * next-event estimation).
+ * Item k lists record records[as_uint(item_pos[k].w)]. Records deeper than
+ * max_rec_depth are left out: their paths would be longer than max_depth
+ * (METHOD.md 10); records shallower than min_rec_depth too (2: single
+ * scattering comes from next-event estimation).
  * A record flagged SPM_RECORD_WALL lies near a wall (host/spm/wall_images.h)
  * and counts only where the ray's point is on its side of the wall's plane
  * (`patches` holds it), so that a ray beyond the wall reads none; one
  * flagged SPM_RECORD_IMAGE too is the mirror image of such a record and
  * counts only on the other side, its record's.
  * *tests counts the records examined (the profile's sphere tests). */
-inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, const __global SpmVolumeRecord* records,
+inline float3 beam_estimate(const SpmGrid* grid, const __global SpmVolumeRecord* records,
                             const __global SpmMedium* media, const __global SpmPatch* patches, int m, float3 o,
                             float3 d, float t0, float t1, float r, uint density_kernel, uint estimator,
                             uint min_rec_depth, uint max_rec_depth, const SpmMediumTable* tab, uint* tests) {
@@ -78,9 +78,12 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global uint* items, con
       const float t = dot(x - o, d);
       const float3 off = x - (o + t * d);
       const float d2 = dot(off, off);
-      const __global SpmVolumeRecord* rec = &records[items[k]];
-      bool in = (t >= ta) & (t < tb) & (d2 < r2) & (item.w <= (float)max_rec_depth) &
-                (item.w >= (float)min_rec_depth) & (rec->medium == m);
+      /* Every item's record is read (its medium and side of a wall), so
+       * its depth comes from there too. */
+      const __global SpmVolumeRecord* rec = &records[as_uint(item.w)];
+      const uint depth = rec->depth;
+      bool in = (t >= ta) & (t < tb) & (d2 < r2) & (depth <= max_rec_depth) & (depth >= min_rec_depth) &
+                (rec->medium == m);
       /* Records near walls are a few: a branch, not a select. */
       const uint stream = rec->stream;
       if (in && (stream & SPM_RECORD_WALL)) {
@@ -141,18 +144,19 @@ inline float kernel_1d(uint density_kernel, float d2, float r) {
  * (medium.h), and w is 1: a point s along the beam is reached with the
  * probability its transmittance gives. Each beam is counted
  * in the one cell of its capsule grid whose span of the walk holds the
- * ray's closest point (grid_walk_out).
+ * ray's closest point (grid_walk_out). Item k lists beam
+ * beams[as_uint(item_pos[k].w)].
  * Beams deeper than max_rec_depth or shallower than min_rec_depth are left
  * out (METHOD.md 10; as in beam_estimate); beams within
  * 1e-3 of parallel to the ray, whose 1 / sin(theta) has no bound, too.
  * *tests counts the beams examined. */
-inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __global uint* cell_start,
-                                   const __global uint* items, const __global SpmBeam* beams,
+inline float3 stream_beam_estimate(const SpmGrid* grid, const __global SpmBeam* beams,
                                    const __global SpmMedium* media, int m, float3 o, float3 d, float t0, float t1,
                                    float r, uint density_kernel, uint min_rec_depth, uint max_rec_depth,
                                    const SpmMediumTable* tab, uint* tests) {
   float3 sum = (float3)(0.0f);
   SpmGridWalk walk;
+  const __global SpmGridInfo* info = grid->info;
   if (info->records == 0 || !grid_walk_begin(info, o, d, t0, t1, &walk)) return sum;
   const float r2 = r * r;
   const float3 sigma_t = load3(media[m].sigma_t);
@@ -161,9 +165,9 @@ inline float3 stream_beam_estimate(const __global SpmGridInfo* info, const __glo
   do {
     const uint c = grid_cell_index(info, walk.cell);
     const float ta = fmax(t0, walk.t_in), tb = fmin(t1, grid_walk_out(&walk));
-    for (uint k = cell_start[c]; k < cell_start[c + 1]; ++k) {
+    for (uint k = grid->cell_start[c]; k < grid->cell_start[c + 1]; ++k) {
       ++*tests;
-      const __global SpmBeam* b = &beams[items[k]];
+      const __global SpmBeam* b = &beams[as_uint(grid->item_pos[k].w)];
       if (b->medium != m || b->depth > max_rec_depth || b->depth < min_rec_depth) continue;
       const float3 e = vload3(0, b->direction);
       const float3 w0 = o - vload3(0, b->origin);
@@ -275,98 +279,6 @@ inline float3 surface_estimate(const SpmGrid* grid, const __global float4* item_
     }
   }
   return sum;
-}
-
-/* The surface estimate the samples of a block of pixels share (one block
- * per work-item, spm_gather.cl). A sample whose diffuse vertex lies within
- * SPM_REUSE_DISTANCE r of the point the last estimate was made at, on a
- * surface facing the same way, with the same record depth limit, reads
- * that estimate instead of summing the disk again: the disk of radius r is
- * far larger than a pixel's footprint once r spans several pixels (Fig. 3
- * (b): a pixel is 0.13 r on the back wall), so the estimates at the block's
- * samples differ by the few records at the disks' rims, and each sample
- * reads an estimate whose disk lies within (1 + SPM_REUSE_DISTANCE) r of
- * its own vertex. The reach scales with r, so as the passes shrink r below
- * a few pixels the reuse stops and the estimate stays consistent
- * (METHOD.md 5). */
-#define SPM_REUSE_DISTANCE 0.25f
-#define SPM_REUSE_COS 0.999f
-
-typedef struct SpmSurfaceReuse {
-  float3 p, n, flux;
-  uint depth_limit; /* SPM_NONE - 1 marks an empty entry: no path uses it */
-  uint patch;
-} SpmSurfaceReuse;
-
-inline SpmSurfaceReuse surface_reuse_empty(void) {
-  SpmSurfaceReuse r;
-  r.p = r.n = r.flux = (float3)(0.0f);
-  r.depth_limit = SPM_NONE - 1u;
-  r.patch = SPM_NONE;
-  return r;
-}
-
-/* Shared only on the same patch: the estimates of two patches differ by
- * their edges' images even where the patches meet in one plane. */
-inline float3 pixel_surface_estimate(SpmSurfaceReuse* reuse, const SpmGrid* grid, const __global float4* item_flux,
-                                     float3 x, float3 n, float r, uint density_kernel, uint depth_limit,
-                                     const __global SpmPatch* patches, uint patch) {
-  const float3 off = x - reuse->p;
-  const float reach = SPM_REUSE_DISTANCE * r;
-  if (reuse->depth_limit == depth_limit && reuse->patch == patch && dot(off, off) < reach * reach &&
-      dot(n, reuse->n) > SPM_REUSE_COS)
-    return reuse->flux;
-  reuse->p = x;
-  reuse->n = n;
-  reuse->depth_limit = depth_limit;
-  reuse->patch = patch;
-  const SpmPatchFrame frame = patch_frame(patches, patch);
-  reuse->flux = surface_estimate(grid, item_flux, x, n, r, density_kernel, depth_limit, &frame);
-  return reuse->flux;
-}
-
-/* The volume estimate along a camera ray's first medium segment, shared
- * by a block's samples in the same way (spm_gather.cl): a segment whose two
- * ends lie within SPM_REUSE_DISTANCE r of the last estimated segment's, in
- * the same medium with the same record depths, reads that estimate. Both
- * segments are straight, so every point of one lies within that distance
- * of the other, and the records the two estimates read differ only at the
- * rims of their cylinders of radius r. As with surfaces the reach scales
- * with r, so the reuse stops once r spans a few pixels' footprint and the
- * estimate stays consistent. A segment that escapes (t1 infinite) is never
- * shared. */
-typedef struct SpmVolumeReuse {
-  float3 a, b, L; /* the segment's ends and its estimate */
-  int medium;     /* -2 marks an empty entry: no segment has it */
-  uint min_depth, max_depth;
-} SpmVolumeReuse;
-
-inline SpmVolumeReuse volume_reuse_empty(void) {
-  SpmVolumeReuse r;
-  r.a = r.b = r.L = (float3)(0.0f);
-  r.medium = -2;
-  r.min_depth = r.max_depth = 0u;
-  return r;
-}
-
-/* Whether segment [t0, t1] of o + t d may read reuse->L; if not, and the
- * segment ends, the entry now describes it and the caller stores its
- * estimate in reuse->L. */
-inline bool volume_reuse_hit(SpmVolumeReuse* reuse, float3 o, float3 d, float t0, float t1, int medium,
-                             uint min_depth, uint max_depth, float r) {
-  if (isinf(t1)) return false;
-  const float3 a = o + t0 * d, b = o + t1 * d;
-  const float reach = SPM_REUSE_DISTANCE * r;
-  const float3 da = a - reuse->a, db = b - reuse->b;
-  if (reuse->medium == medium && reuse->min_depth == min_depth && reuse->max_depth == max_depth &&
-      dot(da, da) < reach * reach && dot(db, db) < reach * reach)
-    return true;
-  reuse->a = a;
-  reuse->b = b;
-  reuse->medium = medium;
-  reuse->min_depth = min_depth;
-  reuse->max_depth = max_depth;
-  return false;
 }
 
 #endif

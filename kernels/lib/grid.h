@@ -15,15 +15,6 @@ typedef struct SpmGrid {
   const __global float4* item_pos;
 } SpmGrid;
 
-inline SpmGrid make_grid(const __global SpmGridInfo* info, const __global uint* cell_start,
-                         const __global float4* item_pos) {
-  SpmGrid g;
-  g.info = info;
-  g.cell_start = cell_start;
-  g.item_pos = item_pos;
-  return g;
-}
-
 /* Cell of point p, clamped to the grid; the same float arithmetic as the
  * host's grid_cell_of, so both agree on a point's cell. */
 inline int3 grid_cell_of(const __global SpmGridInfo* g, float3 p) {
