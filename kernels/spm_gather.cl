@@ -153,7 +153,7 @@ inline float3 nee_arrival(const SpmScene* s, const SpmNeeLight* n, float3 x, flo
 }
 
 /* Single scattering towards the camera along [t0, t1] of a ray through
- * `medium`, by next-event estimation (METHOD.md 5): a light point (nee_light),
+ * `medium`, by next-event estimation (METHOD.md 20): a light point (nee_light),
  * then two distances along the ray, one equi-angular about it (sharp where
  * the ray passes the light) and one by free flight truncated to the segment
  * (where transmittance dominates), combined by the balance heuristic, each
@@ -350,7 +350,7 @@ inline float aim_pdf(float3 x, float3 c, float3 w) {
  * medium around it, and the light scattered once there reaches x with a
  * radiance of about 1 / sin alpha, whose square the cosine's density does
  * not bound: the floor under caustic_area's light took 86% of the gather
- * rays' volume variance from it (README "Gather rays aimed at the glow").
+ * rays' volume variance from it (docs/experiments/caustics.md "Gather rays aimed at the glow").
  * The aimed density follows it, so the weight stays bounded there. */
 inline float3 gather_direction(const SpmScene* s, float aim, float3 x, float3 n, float2 u, float u_light,
                                float* weight) {
@@ -404,7 +404,7 @@ inline float3 gather_direction(const SpmScene* s, float aim, float3 x, float3 n,
  * medium, single scattering (depth 1) included: a shadow ray there
  * (inscatter_nee) measured a quarter of cornell_fog's variance for 4% of
  * its light, and the records, which one pass's gather rays share, carry
- * it with a tenth of that (README "Single scattering along the gather
+ * it with a tenth of that (docs/experiments/gather.md "Single scattering along the gather
  * rays"). The ray's direction comes from gather_direction, and what it
  * brings is scaled by its weight, the reflectance / pi times the cosine
  * over the density, less the reflectance, which the caller applies (1 for
@@ -740,7 +740,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
        * noise, which more samples do not average away, while it is the
        * gather's costliest term: the first volume_samples samples add it
        * for all (each sample's point of the pixel is uniform, so the mean
-       * stays; README "Camera volume estimates for one sample in four"). */
+       * stays; docs/experiments/volume-kernels.md "Camera volume estimates for one sample in four"). */
       const float volume_weight = i < params.volume_samples ? (float)params.spp / (float)params.volume_samples : 0.0f;
       sum += radiance(&s, &maps, camera, o, d, tmin, tmax, params.max_depth, emission && !chains, volume_weight, rng,
                       &reuse, &volume_reuse, &tests);

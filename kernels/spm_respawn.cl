@@ -11,7 +11,8 @@
  * function of (stream, event, j) (METHOD.md 7), so respawn keeps only that
  * event and the sphere or the disk's normal, and deposit draws photon j's
  * offset when it lands it (stream_offset in lib/stream.h), which measured
- * cheaper than drawing and storing N_a offsets here (README).
+ * cheaper than drawing and storing N_a offsets here
+ * (docs/experiments/fig3-and-speed.md "Measured here").
  * A collapsed stream has no offsets: its one photon is the leader
  * (METHOD.md 4). */
 #include "spm_types.h"

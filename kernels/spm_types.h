@@ -80,7 +80,7 @@ typedef struct SpmPrim {
 /* A planar rectangle (a rectangle shape, a cube's face) that flat triangles
  * belong to: centre, unit edge directions u and v and the half extents along
  * them. Surface estimates and deposits near its edges reflect across them
- * (README "Surface estimates that stop at edges"), except across the edges
+ * (docs/experiments/gather.md "Surface estimates that stop at edges"), except across the edges
  * `open` names, where another patch continues the plane. */
 typedef struct SpmPatch {
   spm_float center[3];

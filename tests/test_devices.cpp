@@ -107,7 +107,7 @@ TEST_F(Devices, OclgrindFindsNoDataRaceAndMatchesPocl) {
   // race may be reported, and the image must match PoCL's to float rounding
   // (measured: max relative difference 7e-7; the bound is 1e-4 of each pixel
   // plus 1e-6). Its --uninitialized check cannot run these kernels in
-  // oclgrind 21.10 (README, Tests); the two tests below check for
+  // oclgrind 21.10 (docs/TESTING.md "Tests"); the two tests below check for
   // uninitialised data instead.
   // Both volume estimates: the stream beams add march's beam appends and
   // their own gather loop.

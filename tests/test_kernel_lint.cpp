@@ -3,7 +3,7 @@
 // checkers follow values across function calls). They complement the memcheck
 // render in test_devices.cpp, which sees only what a run executes, and stand in
 // for oclgrind's --uninitialized, which cannot run these kernels in oclgrind
-// 21.10 (README, Tests). A seeded file proves the checks report what they are
+// 21.10 (docs/TESTING.md "Tests"). A seeded file proves the checks report what they are
 // for.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Single scattering in a medium by next-event estimation (METHOD.md 5):
+// Single scattering in a medium by next-event estimation (METHOD.md 20):
 // the radiance along a camera ray that passes a point light in an infinite
 // homogeneous medium, against the integral along the ray by quadrature.
 // With max_depth 2 only single scattering counts, so a volume estimate that

@@ -149,7 +149,7 @@ TEST(Roulette, BoundsTheEventsOfStreamsInUnboundedAlbedoOneFog) {
 // so from rr_depth 1 on each stream survives with q = 0.95 and a photon at
 // depth k carries at most phi0 / 0.95^k; a volume record, the flux of the
 // stream's n <= N_a photons, at most N_a times that. The stream's flux n phi
-// over its emitted N_a phi0, as METHOD.md writes q, would let a stream
+// over its emitted N_a phi0, the rule METHOD.md 10 replaced, would let a stream
 // reduced to a few photons survive with about n / N_a and hand them N_a / n
 // times the flux (this test then fails on both bounds).
 TEST(Roulette, KeepsThePhotonsFluxEven) {
@@ -350,7 +350,7 @@ TEST_F(TimeBudget, PassesEndWithinTheBudget) {
 }
 
 // A timed render's next pass gets the samples that put its gather at 2/3 of
-// the pass (README "Passes balanced for error per second"), as long as the
+// the pass (docs/experiments/pass-balance.md "Passes balanced for error per second"), as long as the
 // pass stays within a tenth of the budget, 1 to 64.
 TEST(BalancedSpp, PutsTheGatherAtTwoThirdsOfThePass) {
   // Photons 0.1 s, a sample 0.05 s: 4 samples make the gather 0.2 of 0.3 s.

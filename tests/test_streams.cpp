@@ -437,7 +437,7 @@ TEST(Streams, AnAreaLightsDiskLandsWholeOnAParallelFloor) {
 }
 
 // On a rectangle the photons that would land beyond an edge are reflected
-// back across it (fold_into_patch; README "Surface estimates that stop at
+// back across it (fold_into_patch; docs/experiments/gather.md "Surface estimates that stop at
 // edges"): with a stream as wide as the floor, every record still lies on
 // the floor, and each stream's records keep its flux.
 TEST(Streams, DepositsStayOnTheirRectangle) {

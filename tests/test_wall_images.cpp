@@ -2,7 +2,7 @@
 // end: the integrator's `wall_images` turns them on and off, and they change
 // the volume estimates only. The images add the disks' parts beyond the
 // walls, so cornell_fog's volume terms rise (by about 2% at its radius, the
-// deficit README "Volume estimates that stop at walls" measured), while
+// deficit docs/experiments/volume-kernels.md "Volume estimates that stop at walls" measured), while
 // every other term of the same pass is the same to the bit.
 #include <gtest/gtest.h>
 

@@ -34,7 +34,7 @@ pixels around them, the silhouette and glow that issue 14 asks to be as
 clean as volpath's.
 
 Everything goes to --out (default BUILD/convergence/SCENE); --summary-dir
-copies the small plots and the markdown table there too (for the README).
+copies the small plots and the markdown table there too (for docs/experiments/).
 
 Example:
   tools/convergence.py scenes/cornell_fog.xml \\

@@ -15,7 +15,7 @@ tabulates:
 - cost: the gather kernel's milliseconds per pass with every term, less
   those without this one.
 
-Example (README "Single scattering along the gather rays"):
+Example (docs/experiments/gather.md "Single scattering along the gather rays"):
   tools/gather_terms.py scenes/cornell_fog.xml --reference tests/data/reference/cornell_fog.exr \\
       -D res=64 --spm-arg=--bounces=-1 --spm-arg=--associated=4 --spm-arg=--streams=10000 \\
       --spm-arg=--spp=6 --passes 30

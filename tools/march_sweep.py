@@ -9,7 +9,7 @@ A finite step takes sigma_t at each step's midpoint and places an event by
 the exponential of that constant within the step, so its bias shrinks with
 the step (tests: Heterogeneous.RayMarchingBiasShrinksWithTheStep).
 
-Example (README, "Smoke and clouds"):
+Example (docs/experiments/heterogeneous.md "Smoke and clouds"):
   tools/march_sweep.py scenes/smoke_cornell.xml \\
       --reference tests/data/reference/smoke_cornell.exr --steps 0,8,4,2,1,0.5 --passes 4 --seeds 1,2
 """

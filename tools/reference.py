@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Render a reference image of an spm scene with Mitsuba 3's volpath.
 
-The project's scenes are Mitsuba 3 XML (shared/design/SCENES.md), so Mitsuba
+The project's scenes are Mitsuba 3 XML (docs/SCENES.md), so Mitsuba
 3 is the independent judge of what spm renders. This script
 
   1. makes a virtual environment under the build directory

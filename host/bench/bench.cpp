@@ -28,7 +28,8 @@ struct Config {
 
 // The paper's Fig. 3 (METHOD.md 8), then scaling in streams at 10 associated
 // photons and in associated photons at 10,000 streams, then a global fog box
-// written the usual Mitsuba way, with every setting derived (README). The
+// written the usual Mitsuba way, with every setting derived
+// (docs/experiments/defaults.md "Scenes written the Mitsuba way"). The
 // cornell_fog cases time the paper's gather, which reads the maps at the
 // camera's vertex, so that their figures compare across versions; the fog
 // box has the defaults, the final gather among them. Last, the smoke plume

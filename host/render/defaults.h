@@ -1,5 +1,5 @@
 // Settings a scene leaves out, derived from the scene rather than fixed in
-// its units (README "Defaults that follow the scene"): the same scene scaled
+// its units (docs/experiments/defaults.md "Defaults that follow the scene"): the same scene scaled
 // by any factor gets the same image.
 #pragma once
 
@@ -14,7 +14,8 @@ namespace spm {
 
 // Photon streams per pass and associated photons per stream when the scene
 // and the command line name none. Counts carry no unit. Measured here at
-// equal time (10 s, 64x64, README): fewer associated photons make cheaper
+// equal time (10 s, 64x64, docs/experiments/defaults.md "Defaults that
+// follow the scene"): fewer associated photons make cheaper
 // passes, and more passes (fresh maps, a shrinking radius) beat more photons
 // per stream; 4 was within noise of 1 and 2 on the fog box and far better
 // than 16 or 100 on it and on cornell_fog. With the final gather, 5,000
@@ -24,7 +25,8 @@ inline constexpr int kDefaultStreams = 10000;
 inline constexpr int kDefaultAssociated = 4;
 
 // Distinct streams' records a density estimate aims to gather: the radius
-// is the distance to the kScaleNeighbours-th nearest record (README).
+// is the distance to the kScaleNeighbours-th nearest record
+// (docs/experiments/defaults.md "Defaults that follow the scene").
 inline constexpr int kScaleNeighbours = 32;
 
 // Streams the scale pilot traces untimed before its timed run, so that the
@@ -35,7 +37,7 @@ inline constexpr uint32_t kPilotWarmStreams = 64;
 // Streams of a pass that write stream beams (METHOD.md 11) when the gather
 // reads them and the scene names no number: a beam gathers along its whole
 // length, so a few hundred make a smooth estimate, while the gather's cost
-// grows with their number (README "Stream beams").
+// grows with their number (docs/experiments/equal-time.md "Stream beams").
 inline constexpr int kDefaultBeamStreams = 1000;
 
 int derived_streams(const IntegratorSettings& in);
@@ -51,7 +53,7 @@ int derived_associated(const IntegratorSettings& in);
 // the volume records' images stop the estimate at walls, a wider kernel
 // costs little bias. Light focused by glass or a mirror does not vary
 // slowly: the records of its first scattering (SPM_RECORD_CAUSTIC) keep
-// kCausticVolumeRadiusFactor radii. Measured at 10 and 30 s (README "A
+// kCausticVolumeRadiusFactor radii. Measured at 10 and 30 s (docs/experiments/volume-kernels.md "A
 // wider volume kernel by default", "A kernel for focused light"): with one
 // kernel for all records, 1.5 radii gave 9-13% less error at 30 s than 1 on
 // cornell_fog and the fog box and 21% on caustic_area, 3 less, the
@@ -68,7 +70,7 @@ inline constexpr float kCausticVolumeRadiusFactor = 1.5f;
 // caustic_area at 10 s, seeds 1 to 3, had 20% less error with 1/4 and the
 // gather rays' volume term 2.5 times less variance; with 1/2 the term had
 // 3.7 times less, but its rays, aimed into the light's bright surroundings,
-// read more records, and timed renders were no better (README "Gather rays
+// read more records, and timed renders were no better (docs/experiments/caustics.md "Gather rays
 // aimed at the glow").
 inline constexpr float kGatherAim = 0.25f;
 

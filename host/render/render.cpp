@@ -132,7 +132,7 @@ namespace {
 constexpr double kPassShareOfBudget = 0.1;
 
 // The gather's share of a pass at which the error at equal time was lowest
-// (tools/pass_balance.py, README "Passes balanced for error per second":
+// (tools/pass_balance.py, docs/experiments/pass-balance.md "Passes balanced for error per second":
 // 2/3 to 3/4 on fog_box and cornell_fog alike).
 constexpr double kGatherShare = 2.0 / 3.0;
 

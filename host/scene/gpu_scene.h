@@ -37,7 +37,7 @@ struct SceneTables {
 // share of the scene's diagonal (half their bounding box's diagonal; point
 // and spot lights: 0): caustic_area's sphere light is 0.8% of it,
 // cornell_fog's ceiling light 10% and the fog box's 8%, where aiming gave
-// 10% more error and none less (README "Gather rays aimed at the glow").
+// 10% more error and none less (docs/experiments/caustics.md "Gather rays aimed at the glow").
 inline constexpr double kAimedLightSize = 0.05;
 
 // Flattens `scene` for film size width x height. Throws InputError when the

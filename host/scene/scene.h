@@ -116,17 +116,17 @@ struct IntegratorSettings {
   // -1 unlimited; Russian roulette from path vertex rr_depth on.
   int max_depth = -1;
   int rr_depth = 5;
-  std::string estimator = "bre";    // bre | paper (METHOD.md 5)
+  std::string estimator = "bre";    // bre | beams | paper (METHOD.md 5, 11)
   std::string density_kernel = "uniform";  // uniform | epanechnikov
   std::string direct = "nee";       // nee | photons
   bool final_gather = true;         // one gather ray at the camera's diffuse vertex (with direct nee)
   bool wall_images = true;          // volume records mirrored across walls (host/spm/wall_images.h)
-  // Radius reduction of progressive passes (METHOD.md 6 says 2/3, Knaus &
-  // Zwicker's rate-optimal value): 0.9 by measurement. 0.8 gave 9-22% less
-  // error than 2/3 at 10 and 30 s (README "A slower radius schedule"); once
+  // Radius reduction of progressive passes (METHOD.md 6: 0.9 by
+  // measurement, not Knaus & Zwicker's rate-optimal 2/3). 0.8 gave 9-22% less
+  // error than 2/3 at 10 and 30 s (docs/experiments/defaults.md "A slower radius schedule"); once
   // the volume records' images took the walls' bias away (wall_images),
   // 0.9 gave 4-19% less than 0.8 at 30 s on cornell_fog, the fog box and
-  // caustic_area (README "Volume estimates that stop at walls"). The photon
+  // caustic_area (docs/experiments/volume-kernels.md "Volume estimates that stop at walls"). The photon
   // noise, not the radius's bias, is most of the error at the pass counts
   // users run.
   float alpha = 0.9f;
@@ -137,13 +137,13 @@ struct IntegratorSettings {
   // One camera sample in volume_every per pixel and pass adds the camera
   // segments' volume estimate, weighted to stand for the others: the
   // estimate is the same pass's records for every sample of a pixel, and
-  // it is the gather's costliest term (README "Camera volume estimates
+  // it is the gather's costliest term (docs/experiments/volume-kernels.md "Camera volume estimates
   // for one sample in four").
   int volume_every = 4;
   // The volume records' kernel radius in the first pass, shrinking with the
   // radius; 0: derived (render/defaults.h, derived_volume_radius). A thin
   // fog's multiple scattering is smooth where a caustic on a surface is
-  // sharp (README "A wider kernel in thin fog", "A wider volume kernel by
+  // sharp (docs/experiments/volume-kernels.md "A wider kernel in thin fog", "A wider volume kernel by
   // default").
   float volume_radius = 0.0f;
   std::string where;

@@ -1,7 +1,7 @@
 // Mirror images of volume records across opaque walls and across the
 // boundaries where a medium ends, so that the beam radiance estimate does
 // not darken where its disk reaches through a wall or out of the medium
-// (README "Volume estimates that stop at walls", "... and at the fog's edge").
+// (docs/experiments/volume-kernels.md "Volume estimates that stop at walls", "... and at the fog's edge").
 //
 // A record's kernel disk near a wall crosses it into space the record's
 // medium has no photons in (the room's outside, a box's inside), so the

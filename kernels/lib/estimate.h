@@ -95,7 +95,7 @@ inline float3 beam_estimate(const SpmGrid* grid, const __global SpmVolumeRecord*
       /* In a homogeneous medium every record's weight is computed and a
        * select keeps those in range: whether a record is in range depends
        * on the data, and branching on it cost more in mispredicted branches
-       * than the terms themselves (README "A branch-free volume estimate").
+       * than the terms themselves (docs/experiments/gather.md "A branch-free volume estimate").
        * The select picks, rather than multiplies by a 0/1 mask, since a
        * record out of range may have an infinite transmittance (t < t0). */
       if (kind == SPM_BRE_GREY) {

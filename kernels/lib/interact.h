@@ -46,9 +46,9 @@ inline uint end_stream(SpmStreams st, uint s, uint why, __global uint* counts, u
  * photons that share its survivors' flux (SPM_STREAM_REFILL), so that the
  * streams that lost photons end, as METHOD.md 10 means, while the photons
  * of those that go on keep about phi0.
- * METHOD.md 10 has no refill: the survivors of a stream cut down to n
- * photons carried N_a / n times their flux, so that a pass's few late
- * photons held most of its maps' squared flux (cornell_fog at 100
+ * Without the refill (the rule METHOD.md 10 replaced), the survivors of a
+ * stream cut down to n photons carried N_a / n times their flux, so that
+ * a pass's few late photons held most of its maps' squared flux (cornell_fog at 100
  * associated photons: one surface record 13,000 times the mean, the top 1%
  * of records 99.7% of the squared flux; with the refill 138 times and 20%,
  * the rest the red wall's per-channel factor). The refill is exact: the

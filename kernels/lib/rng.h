@@ -50,8 +50,8 @@ inline SpmRng rng_make(uint seed, uint pass, uint id, uint event) {
   return r;
 }
 
-/* The camera samples' key: the pass with its top bit set. METHOD.md 7 keys
- * photons and pixels alike by (seed, pass), and a pixel's counter (pixel,
+/* The camera samples' key: the pass with its top bit set (METHOD.md 7).
+ * Keyed alike by (seed, pass), as photons are, a pixel's counter (pixel,
  * 256 sample + vertex, purpose, lane) is a stream's (id, event, purpose,
  * lane) whenever the numbers match: pixel p's first sample would read, at
  * vertex v, the very uniforms stream p drew at event v, so an estimate and
