@@ -33,10 +33,6 @@ typedef struct SpmMaps {
   float march_step; /* Delta of heterogeneous media (medium.h) */
 } SpmMaps;
 
-/* Null boundaries a shadow ray may cross before it counts as blocked; scenes
- * nest media a few levels deep at most. */
-#define SPM_MAX_SHADOW_CROSSINGS 16
-
 /* Random-number lanes of a heterogeneous medium's ratio tracking
  * (SPM_RNG_TRANSMITTANCE), 2^16 per medium segment: segment `i` of
  * transmittance call `call` of a path vertex. */
@@ -292,11 +288,6 @@ inline float3 camera_volume_estimate(SpmVolumeReuse* reuse, const SpmScene* s, c
   return L;
 }
 
-/* Specular vertices a camera path follows at most: a safety cap, so that
- * the vertices of a sample (null crossings included, at most 4 per specular
- * one) fit the block of 256 RNG events each sample has. */
-#define SPM_MAX_CAMERA_SPECULAR 60u
-
 /* Largest depth of a photon record that a camera path with `specular`
  * specular vertices may use: the path then has depth + specular + 1
  * segments, at most max_depth (METHOD.md 10; SPM_NONE: unlimited). */
@@ -307,23 +298,6 @@ inline uint record_depth_limit(uint max_depth, uint specular) {
 
 /* Whether a path of `segments` segments is within max_depth. */
 inline bool within_depth(uint segments, uint max_depth) { return max_depth == SPM_NONE || segments <= max_depth; }
-
-/* Gather rays shorter than SPM_GATHER_NEAR radii do not read the surface
- * map where they end; the path goes on from there instead, at most
- * SPM_GATHER_HOPS times (Jensen 1996's remedy for nearby surfaces). Seen
- * from near, the disk's boundary bias at edges and corners (a disk that
- * reaches past the surface finds no photons there) covers much of the
- * gather ray's hemisphere; seen from further than a few radii it is
- * averaged away. The reach scales with r, so as the passes shrink it the
- * hops become rare. Each hop's vertex has its own events, past the camera
- * vertices' (SPM_MAX_CAMERA_SPECULAR) in the sample's block of 256. */
-#define SPM_GATHER_NEAR 4.0f
-#define SPM_GATHER_HOPS 2u
-#define SPM_GATHER_EVENT 248u
-
-/* Half-angle of the cone about a light in which a final-gather ray may be
- * aimed (gather_direction). */
-#define SPM_AIM_CONE (0.5f * SPM_PI)
 
 /* Density, in solid angle, of the directions gather_direction aims about
  * the light at `c` from x: uniform in the angle alpha from the light's

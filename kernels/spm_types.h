@@ -20,6 +20,8 @@ typedef float spm_float;
 
 #define SPM_NONE 0xffffffffu
 
+#include "spm_tuning.h"
+
 /* Error bits kernels raise in an error word the host checks after each stage. */
 #define SPM_ERROR_VOLUME_OVERFLOW 1u  /* more volume records than the buffer holds */
 #define SPM_ERROR_SURFACE_OVERFLOW 2u /* more surface records than the buffer holds */

@@ -12,6 +12,7 @@
 #include "cli_support.h"
 #include "film/image_io.h"
 #include "render/defaults.h"
+#include "render/pass_renderer.h"
 #include "render/render.h"
 #include "scene/gpu_scene.h"
 #include "scene/loader.h"
@@ -258,33 +259,47 @@ spm::Scene scaled(spm::Scene s, float k) {
   return s;
 }
 
+// The scene's radius and width as a render derives them: with seed 1, the
+// scale pilot on a pass renderer's own upload and propagator when the scene
+// gives no radius.
+spm::Scene derived_scale(const spm::Scene& scene) {
+  spm::RenderSettings s;
+  s.seed = 1;
+  s.width = s.height = 1;
+  s = spm::resolve_settings(scene, s);
+  if (scene.integrator.radius > 0.0f) return spm::derive_scale(scene, spm::ScalePilot{});
+  const spm::SceneTables tables = spm::flatten_scene(scene, 1, 1);
+  spm::PassRenderer renderer(spm::test::device(), scene, tables, s);
+  return spm::derive_scale(scene, renderer.pilot());
+}
+
 TEST(ScaleFree, AGivenRadiusIsTheWidthTooWhenNoWidthIsGiven) {
   spm::Scene scene = spm::load_scene(kFogBox);
   scene.integrator.radius = 0.2f;
   auto& dev = spm::test::device();
-  const spm::Scene d = spm::derive_scale(scene, dev, 1);
+  const spm::Scene d = derived_scale(scene);
   EXPECT_FLOAT_EQ(d.integrator.radius, 0.2f);
   EXPECT_FLOAT_EQ(d.integrator.stream_width, 0.2f);
-  EXPECT_FALSE(d.integrator.radius_derived);
+  EXPECT_NE(d.integrator.source("radius"), spm::SettingSource::Derived);
+  EXPECT_EQ(d.integrator.source("width"), spm::SettingSource::Derived);
   // And the render uses it (the settings it announces).
   spm::RenderSettings s;
   s.passes = 1;
   s.spp = 1;
   s.width = s.height = 8;
   float width = -1.0f;
-  s.announce = [&](const spm::RenderUsed& u) { width = u.stream_width; };
+  s.announce = [&](const spm::Scene& used, double) { width = used.integrator.stream_width; };
   spm::render(scene, s, dev);
   EXPECT_FLOAT_EQ(width, 0.2f);
 }
 
 TEST(ScaleFree, DefaultsDeriveTheSameRadiusAtAnyScale) {
   const spm::Scene scene = spm::load_scene(kFogBox);
-  auto& dev = spm::test::device();
-  const float r = spm::derive_scale(scene, dev, 1).integrator.radius;
+  const float r = derived_scale(scene).integrator.radius;
   EXPECT_GT(r, 0.0f);
   EXPECT_LT(r, 0.5f) << "the derived radius is a small part of the 2.56-unit box";
   for (float k : {100.0f, 0.01f}) {
-    const spm::Scene d = spm::derive_scale(scaled(scene, k), dev, 1);
+    const spm::Scene d = derived_scale(scaled(scene, k));
     EXPECT_NEAR(d.integrator.radius / k, r, 1e-2f * r) << "scale " << k;
     EXPECT_FLOAT_EQ(d.integrator.stream_width, d.integrator.radius);
   }
@@ -328,7 +343,8 @@ TEST_F(TimeBudget, PassesEndWithinTheBudget) {
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_LE(j["seconds"].get<double>(), 3.15);
   EXPECT_GE(j["passes"].get<int>(), 1);
-  EXPECT_EQ(j["settings"]["time_budget_s"].get<double>(), 3.0);
+  EXPECT_EQ(j["settings"]["time"].get<double>(), 3.0);
+  EXPECT_EQ(j["settings"]["sources"]["time"].get<std::string>(), "command line");
   // Before any stage is timed, the first pass of a balanced render takes at
   // most 4 samples per pixel (render.cpp, kFirstBalancedSpp).
   EXPECT_LE(j["passes_detail"][0]["camera_samples"].get<int>(), 4 * 32 * 32);

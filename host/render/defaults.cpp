@@ -4,9 +4,6 @@
 #include <cmath>
 
 #include "render/render.h"
-#include "scene/gpu_scene.h"
-#include "spm/propagate.h"
-#include "util/timer.h"
 
 namespace spm {
 
@@ -45,10 +42,25 @@ float derived_caustic_volume_radius(const Scene& scene) {
   return std::min(volume_radius, kCausticVolumeRadiusFactor * scene.integrator.radius);
 }
 
+void fill_derived(Scene& scene, const RenderSettings& s) {
+  IntegratorSettings& in = scene.integrator;
+  const auto fill = [&](const char* name, auto& value, auto derived) {
+    if (value > 0) return;
+    value = derived;
+    in.sources[name] = SettingSource::Derived;
+  };
+  fill("streams", in.streams, derived_streams(in));
+  fill("associated", in.associated, derived_associated(in));
+  fill("beam_streams", in.beam_streams, derived_beam_streams(in));
+  fill("volume_radius", in.volume_radius, derived_volume_radius(scene));
+  fill("spp", in.spp, s.spp);
+  fill("passes", in.passes, s.passes);
+}
+
 int samples_per_pass(const Scene& scene, int width, int height) {
   const double photons = double(derived_streams(scene.integrator)) * derived_associated(scene.integrator);
-  const double spp = photons / (4.0 * double(width) * double(height));
-  return static_cast<int>(std::clamp(std::lround(spp), 1L, 64L));
+  const double spp = photons / (kPhotonsPerSample * double(width) * double(height));
+  return static_cast<int>(std::clamp(std::lround(spp), 1L, long(kMaxPassSpp)));
 }
 
 float neighbour_radius(const std::vector<glm::vec3>& points, int k, int queries) {
@@ -101,49 +113,19 @@ float scene_diagonal(const Scene& scene) {
 
 }  // namespace
 
-Scene derive_scale(const Scene& scene, Device& device, uint32_t seed, ScalePilot* pilot_out) {
+Scene derive_scale(const Scene& scene, const ScalePilot& pilot) {
   Scene out = scene;
   IntegratorSettings& in = out.integrator;
-  if (in.radius > 0.0f) {
-    if (!(in.stream_width > 0.0f)) in.stream_width = in.radius;  // METHOD.md 8: w = r
-    return out;
+  if (!(in.radius > 0.0f)) {
+    float r = pilot_radius(pilot);
+    if (!(r > 0.0f)) r = scene_diagonal(scene) * kFallbackRadius;
+    in.radius = r;
+    in.sources["radius"] = SettingSource::Derived;
   }
-  ScalePilot pilot;
-  {
-    const SceneTables tables = flatten_scene(scene, 1, 1);
-    const GpuScene gpu(device, tables);
-    RenderSettings rs;
-    rs.seed = seed;
-    StreamSettings st = stream_settings(scene, rs, 0);
-    // The leaders' events alone: one photon per stream, at its leader.
-    st.associated = 1;
-    st.stream_width = 0.0f;
-    // The pilot reads the events' positions (the volume records), never beams.
-    st.beams = false;
-    // Some drivers (PoCL among them) compile a kernel for its work-group size
-    // at its first launch, which would time the compiler rather than the
-    // streams (2 s against 0.08 s on the fog box with a cold cache) and size
-    // a timed render's passes ten times too small. A few streams first, on
-    // their own propagator and untimed, launch every stage once.
-    StreamSettings warm = st;
-    warm.streams = std::min<uint32_t>(st.streams, kPilotWarmStreams);
-    StreamPropagator(device, gpu, warm).propagate(0, 0.0f);
-    StreamPropagator propagator(device, gpu, st);
-    Timer timer;
-    const PhotonMaps maps = propagator.propagate(0, 0.0f);
-    pilot.seconds = timer.lap();
-    for (const auto& r : maps.volume) pilot.volume.emplace_back(r.position[0], r.position[1], r.position[2]);
-    for (const auto& r : maps.surface) pilot.surface.emplace_back(r.position[0], r.position[1], r.position[2]);
-  }
-  float r = pilot_radius(pilot);
-  if (!(r > 0.0f)) r = scene_diagonal(scene) / 100.0f;
-  in.radius = r;
-  in.radius_derived = true;
   if (!(in.stream_width > 0.0f)) {
-    in.stream_width = r;
-    in.stream_width_derived = true;
+    in.stream_width = in.radius;  // METHOD.md 8: w = r
+    in.sources["width"] = SettingSource::Derived;
   }
-  if (pilot_out) *pilot_out = std::move(pilot);
   return out;
 }
 

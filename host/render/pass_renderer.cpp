@@ -17,11 +17,8 @@ namespace spm {
 namespace {
 
 
-// The device memory budget, shared out by sizes alone (never by what the
-// driver has freed so far, which varies from run to run), so that the same
-// render always makes the same batches, tiles and map parts: the scene's
-// tables first, then half of the rest for a stream batch (at most 1 GiB),
-// a quarter of what remains for the film, and the rest for the maps' grids.
+// The device memory budget, shared out by sizes alone (render/tuning.h,
+// kStreamBatchShare).
 size_t after_scene(const Device& device, const GpuScene& gpu) {
   const size_t budget = device.memory_budget();
   return budget > gpu.bytes() ? budget - gpu.bytes() : 0;
@@ -30,7 +27,8 @@ size_t after_scene(const Device& device, const GpuScene& gpu) {
 StreamSettings batch_settings(const Device& device, const GpuScene& gpu, const Scene& scene,
                               const RenderSettings& s) {
   StreamSettings out = stream_settings(scene, s, 0);
-  out.memory_budget = std::max<size_t>(1, std::min<size_t>(after_scene(device, gpu) / 2, size_t(1) << 30));
+  out.memory_budget = std::max<size_t>(
+      1, std::min<size_t>(size_t(kStreamBatchShare * double(after_scene(device, gpu))), kStreamBatchBytes));
   return out;
 }
 
@@ -68,7 +66,7 @@ size_t host_map_budget() {
     return static_cast<size_t>(v);
   }
   const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
-  return pages > 0 && page > 0 ? size_t(pages) * size_t(page) / 4 : size_t(1) << 30;
+  return pages > 0 && page > 0 ? size_t(kHostMapShare * double(pages) * double(page)) : size_t(1) << 30;
 }
 
 // The maps' records in `parts` contiguous ranges of each map, the k-th.
@@ -83,12 +81,14 @@ std::vector<Record> part_of(const std::vector<Record>& records, size_t k, size_t
 PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables& tables,
                            const RenderSettings& settings)
     : device_(device),
-      scene_(scene),
+      scene_(&scene),
+      tables_(tables),
       settings_(settings),
       gpu_(device, tables),
       propagator_(device, gpu_, batch_settings(device, gpu_, scene, settings)),
       gather_(device, gpu_, size_t(settings.width), size_t(settings.width) * settings.height,
-              (after_scene(device, gpu_) - std::min(after_scene(device, gpu_), propagator_.bytes())) / 4),
+              size_t(kFilmShare *
+                     double(after_scene(device, gpu_) - std::min(after_scene(device, gpu_), propagator_.bytes())))),
       density_kernel_(kDensityKernelOption.code(scene.integrator.density_kernel)),
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
       direct_(kDirectOption.code(scene.integrator.direct)),
@@ -96,11 +96,8 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       specular_(std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) {
         return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
       })),
-      volume_radius0_(derived_volume_radius(scene)),
-      caustic_volume_radius0_(derived_caustic_volume_radius(scene)),
       aimed_(final_gather_ && std::any_of(tables.lights.begin(), tables.lights.end(),
                                           [](const SpmLight& l) { return l.aim > 0.0f; })),
-      walls_(tables, volume_radius0_),
       wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {
   // A stream beam in a medium whose sigma_t varies per channel would need its
   // own optical depth per channel (estimate.h); grey ones need none.
@@ -118,6 +115,32 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
     scene_lo_ = glm::vec3(tables.nodes[0].lo[0], tables.nodes[0].lo[1], tables.nodes[0].lo[2]);
     scene_hi_ = glm::vec3(tables.nodes[0].hi[0], tables.nodes[0].hi[1], tables.nodes[0].hi[2]);
   }
+  if (scene.integrator.radius > 0.0f) set_scene(scene);
+}
+
+void PassRenderer::set_scene(const Scene& scene) {
+  scene_ = &scene;
+  propagator_.set_settings(batch_settings(device_, gpu_, scene, settings_));
+  volume_radius0_ = derived_volume_radius(scene);
+  caustic_volume_radius0_ = derived_caustic_volume_radius(scene);
+  walls_ = WallImages(tables_, volume_radius0_);
+}
+
+ScalePilot PassRenderer::pilot() {
+  // Some drivers (PoCL among them) compile a kernel for its work-group size
+  // at its first launch, which would time the compiler rather than the
+  // streams (2 s against 0.08 s on the fog box with a cold cache) and size
+  // a timed render's passes ten times too small: a few streams first,
+  // untimed, launch every stage once.
+  const uint32_t streams = propagator_.settings().streams;
+  propagator_.propagate_leaders(0, std::min(streams, kPilotWarmStreams));
+  ScalePilot pilot;
+  Timer timer;
+  const PhotonMaps maps = propagator_.propagate_leaders(0, streams);
+  pilot.seconds = timer.lap();
+  for (const auto& r : maps.volume) pilot.volume.emplace_back(r.position[0], r.position[1], r.position[2]);
+  for (const auto& r : maps.surface) pilot.surface.emplace_back(r.position[0], r.position[1], r.position[2]);
+  return pilot;
 }
 
 double PassRenderer::Stages::now() const { return profiler ? profiler->now() : 0.0; }
@@ -135,7 +158,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
   // uploaded and gathered along the same camera paths (same random
   // numbers), the parts' films summed; emission and next-event estimation
   // come with the first part only.
-  const IntegratorSettings& in = scene_.integrator;
+  const IntegratorSettings& in = scene_->integrator;
   const RenderSettings& s = settings_;
   const size_t pixels = size_t(s.width) * s.height;
   const bool skip_direct = direct_ == SPM_DIRECT_NEE;
@@ -173,7 +196,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
       if (parts == 1 && maps_budget_ > 0) {
         // The whole maps' size says about how many parts they need; a part
         // that still does not fit halves them all again below.
-        parts = std::max<size_t>(2, size_t(1.25 * double(data.bytes()) / double(maps_budget_)) + 1);
+        parts = std::max<size_t>(2, size_t(kMapPartsMargin * double(data.bytes()) / double(maps_budget_)) + 1);
         continue;
       }
       if (parts >= std::max<size_t>(1, records)) {
@@ -207,7 +230,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.estimator = estimator_;
     params.direct = direct_;
     params.final_gather = final_gather_ ? 1u : 0u;
-    params.march_step = scene_.integrator.march_step;
+    params.march_step = scene_->integrator.march_step;
     params.direct_terms = direct_terms && k == 0;
     params.first_sample = first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass) * s.spp);
     params.strata_seed = strata_seed_;
@@ -225,7 +248,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
 }
 
 PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
-  const IntegratorSettings& in = scene_.integrator;
+  const IntegratorSettings& in = scene_->integrator;
   const RenderSettings& s = settings_;
   const size_t pixels = size_t(s.width) * s.height;
   PassOutput out;

@@ -9,6 +9,7 @@
 
 #include "device/device.h"
 #include "profile/profile.h"
+#include "render/defaults.h"
 #include "render/render.h"
 #include "scene/gpu_scene.h"
 #include "spm/gather.h"
@@ -26,8 +27,18 @@ struct PassOutput {
 
 class PassRenderer {
  public:
-  // `settings` as resolve_settings returned them.
+  // `settings` as resolve_settings returned them. `scene` may have no
+  // radius yet: then pilot(), derive_scale and set_scene come first.
   PassRenderer(Device& device, const Scene& scene, const SceneTables& tables, const RenderSettings& settings);
+
+  // The scale pilot, a pass of the leaders alone on this renderer's scene
+  // upload and propagator (render/defaults.h, ScalePilot).
+  ScalePilot pilot();
+
+  // The scene the passes render from now on: `scene` as derive_scale and
+  // sized_for_budget made it from the one the renderer was made with (the
+  // same but for its radius, width and streams). Kept by reference.
+  void set_scene(const Scene& scene);
 
   // Renders pass `pass`; host stages go to `profiler` (if any) on `track`.
   PassOutput render(int pass, Profiler* profiler, int track);
@@ -62,7 +73,8 @@ class PassRenderer {
               PassOutput& out, const Stages& stages);
 
   Device& device_;
-  const Scene& scene_;
+  const Scene* scene_;
+  const SceneTables& tables_;
   RenderSettings settings_;
   GpuScene gpu_;
   StreamPropagator propagator_;
@@ -76,12 +88,12 @@ class PassRenderer {
   bool final_gather_;
   // Whether the scene has mirrors or glass, where emission chains start (spm_chain_pixels).
   bool specular_;
-  float volume_radius0_;  // the first pass's volume radius (derived_volume_radius)
-  float caustic_volume_radius0_;  // and its caustic volume radius (derived_caustic_volume_radius)
+  float volume_radius0_ = 0.0f;  // the first pass's volume radius (derived_volume_radius)
+  float caustic_volume_radius0_ = 0.0f;  // and its caustic volume radius (derived_caustic_volume_radius)
   // Whether final-gather rays aim at lights (SpmLight::aim, kGatherAim).
   bool aimed_;
   // The caustic volume radius of the pass whose radius is `radius`: it shrinks as the radius does.
-  float caustic_volume_radius(float radius) const { return caustic_volume_radius0_ * radius / scene_.integrator.radius; }
+  float caustic_volume_radius(float radius) const { return caustic_volume_radius0_ * radius / scene_->integrator.radius; }
   // The walls the volume records are mirrored across (the bre estimate only).
   WallImages walls_;
   bool wall_images_;

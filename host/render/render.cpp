@@ -9,6 +9,7 @@
 #include "render/defaults.h"
 #include "render/pass_renderer.h"
 #include "scene/integrator_options.h"
+#include "scene/settings.h"
 #include "scene/gpu_scene.h"
 #include "util/errors.h"
 #include "util/timer.h"
@@ -23,26 +24,14 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
                                   " is outside 1x1 .. 16384x16384");
   }
   const IntegratorSettings& in = scene.integrator;
-  const auto check = [&](bool ok, const std::string& what) {
-    if (!ok) throw InputError(in.where.empty() ? scene.path : in.where, what);
-  };
-  check(in.streams >= 0, "streams must be at least 1 (--streams)");
-  check(in.associated >= 0 && in.associated <= 65535, "associated must be in 1 .. 65535 (--associated)");
-  check(in.stream_width >= 0.0f && std::isfinite(in.stream_width), "the stream width must be positive (--stream-width)");
-  check(in.radius >= 0.0f && std::isfinite(in.radius), "the search radius must be positive (--radius)");
-  check(in.volume_radius >= 0.0f && std::isfinite(in.volume_radius),
-        "the volume radius must be positive (--volume-radius)");
-  check(in.max_bounces >= -1 && in.max_bounces != 0, "max_bounces must be at least 1, or -1 for unlimited (--bounces)");
-  check(in.max_depth >= -1, "max_depth must be at least -1 (-1: unlimited)");
-  check(in.rr_depth >= 1, "rr_depth must be at least 1");
-  check(in.volume_every >= 1, "volume_every must be at least 1 (--volume-every)");
-  check(in.emission_chains >= 0 && in.emission_chains <= 1024,
-        "emission_chains must be in 0 .. 1024 (--emission-chains)");
-  check(in.march_step >= 0.0f && std::isfinite(in.march_step), "march_step must not be negative (--march-step)");
-  check(in.alpha > 0.0f && in.alpha < 1.0f, "alpha must be in (0, 1) (--alpha)");
-  check(in.time >= 0.0f && std::isfinite(in.time), "the time budget must not be negative (--time)");
+  check_settings(in, scene.path);
   if (s.spp < 0 || s.spp > 1 << 20) throw InputError("--spp", "samples per pixel must be in 1 .. 1048576");
   if (s.passes < 0) throw InputError("--passes", "the number of passes must be at least 1");
+  if (s.spp == 0) s.spp = in.spp;
+  if (s.seed == 0) s.seed = uint32_t(in.seed);
+  // A pass count on the command line wins over a time budget; the scene's
+  // own yields to it (below).
+  if (s.passes == 0 && in.source("passes") == SettingSource::CommandLine) s.passes = in.passes;
   if (s.spp == 0) {
     s.spp = samples_per_pass(scene, s.width, s.height);
     s.spp_derived = true;
@@ -124,38 +113,17 @@ Image OrderedSum::average(int width, int height) const {
   return image;
 }
 
-namespace {
-
-// A timed render's passes are sized so that one takes at most this share of
-// the budget by first_pass_estimate; after the first pass, a pass that would
-// not fit (judged by the longest so far) is never started.
-constexpr double kPassShareOfBudget = 0.1;
-
-// The gather's share of a pass at which the error at equal time was lowest
-// (tools/pass_balance.py, docs/experiments/pass-balance.md "Passes balanced for error per second":
-// 2/3 to 3/4 on fog_box and cornell_fog alike).
-constexpr double kGatherShare = 2.0 / 3.0;
-
-// Camera samples of a balanced timed render's first pass, before any stage
-// has been timed: the derived count (one per four photons) can make the
-// first pass several times a balanced one (caustic_area at 10 s: 61
-// samples, about 3 s, against 16 samples and 1 s after it), and the budget
-// then lost a third to it.
-constexpr int kFirstBalancedSpp = 4;
-
-}  // namespace
-
 int balanced_spp(double photon_seconds, double gather_seconds, int spp, double budget) {
   const double per_sample = gather_seconds / std::max(1, spp);
   if (!(per_sample > 0.0) || !(photon_seconds > 0.0)) return spp;
   double want = kGatherShare / (1.0 - kGatherShare) * photon_seconds / per_sample;
   // The pass must still fit its share of the budget.
   want = std::min(want, (kPassShareOfBudget * budget - photon_seconds) / per_sample);
-  return static_cast<int>(std::clamp(std::lround(want), 1L, 64L));
+  return static_cast<int>(std::clamp(std::lround(want), 1L, long(kMaxPassSpp)));
 }
 
 double first_pass_estimate(const Scene& scene, double pilot_seconds) {
-  return 3.0 * pilot_seconds * (1.0 + derived_associated(scene.integrator) / 8.0);
+  return kPassPerPilot * pilot_seconds * (1.0 + derived_associated(scene.integrator) / kPilotAssociated);
 }
 
 Scene sized_for_budget(const Scene& scene, RenderSettings& s, double pilot_seconds) {
@@ -169,9 +137,10 @@ Scene sized_for_budget(const Scene& scene, RenderSettings& s, double pilot_secon
   // Fewer streams spread their records thinner: a derived radius grows as
   // the surface records' spacing does, with the inverse square root.
   const float grow = std::sqrt(float(derived_streams(in)) / float(streams));
-  if (in.radius_derived) in.radius *= grow;
-  if (in.stream_width_derived) in.stream_width *= grow;
+  if (in.source("radius") == SettingSource::Derived) in.radius *= grow;
+  if (in.source("width") == SettingSource::Derived) in.stream_width *= grow;
   in.streams = streams;
+  in.sources["streams"] = SettingSource::Derived;
   s.spp = std::max(1, static_cast<int>(std::lround(s.spp * f)));
   return out;
 }
@@ -181,31 +150,26 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   RenderSettings s = resolve_settings(scene_in, settings);
   const bool timed = s.passes == 0;
   for (Device* d : devices) d->set_memory_budget(s.memory_budget);
-  // Derived radius and width (defaults.h); a timed render always runs the
-  // pilot, whose propagation time sizes its passes.
+  const SceneTables tables = flatten_scene(scene_in, s.width, s.height);
+  // Device 0's renderer first: the scale pilot is a pass of its own streams
+  // (defaults.h). A timed render always runs it, whose propagation time
+  // sizes its passes; a render with a radius needs no other.
+  std::vector<std::unique_ptr<PassRenderer>> renderers(devices.size());
+  renderers[0] = std::make_unique<PassRenderer>(*devices[0], scene_in, tables, s);
   ScalePilot pilot;
-  // A given radius needs no pilot; derive_scale then only gives a missing
-  // width the radius.
-  Scene scene = scene_in.integrator.radius > 0.0f ? derive_scale(scene_in, *devices[0], s.seed) : scene_in;
   if (scene_in.integrator.radius <= 0.0f || timed) {
     const double start = profiler ? profiler->now() : 0.0;
-    Scene probe = scene_in;
-    probe.integrator.radius = 0.0f;
-    Scene derived = derive_scale(probe, *devices[0], s.seed, &pilot);
-    if (scene_in.integrator.radius <= 0.0f) scene = std::move(derived);
+    pilot = renderers[0]->pilot();
     // The pilot is a host stage of its own; its launches stay out of the
     // passes' kernel figures.
     devices[0]->take_launches();
     if (profiler) profiler->stage("pilot", start, profiler->now(), 1);
   }
-  scene = sized_for_budget(scene, s, pilot.seconds);
-  if (s.announce) {
-    s.announce(RenderUsed{derived_streams(scene.integrator), derived_associated(scene.integrator),
-                          scene.integrator.radius, scene.integrator.stream_width, derived_volume_radius(scene),
-                          derived_caustic_volume_radius(scene), s.spp, s.passes, pilot.seconds});
-  }
+  Scene scene = sized_for_budget(derive_scale(scene_in, pilot), s, pilot.seconds);
+  fill_derived(scene, s);
+  if (s.announce) s.announce(scene, pilot.seconds);
   const IntegratorSettings& in = scene.integrator;
-  const SceneTables tables = flatten_scene(scene, s.width, s.height);
+  renderers[0]->set_scene(scene);
 
   std::mutex mutex;
   std::atomic<int> next{0};
@@ -226,7 +190,8 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
       Device& device = *devices[d];
       st.devices[d].name = device.info().name;
       if (profiler) profiler->add_device(int(d), device.info().name);
-      PassRenderer renderer(device, scene, tables, s);
+      if (!renderers[d]) renderers[d] = std::make_unique<PassRenderer>(device, scene, tables, s);
+      PassRenderer& renderer = *renderers[d];
       // The budget counts from here: scene upload and kernel builds are
       // reported apart (RenderStats::build_seconds).
       Timer clock;

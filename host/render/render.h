@@ -17,17 +17,6 @@
 
 namespace spm {
 
-// The settings a render runs with once the scene's gaps are derived
-// (defaults.h) and a timed render's passes are sized.
-struct RenderUsed {
-  int streams = 0, associated = 0;
-  float radius = 0.0f, stream_width = 0.0f, volume_radius = 0.0f;  // of the first pass
-  float caustic_volume_radius = 0.0f;  // of the first pass (derived_caustic_volume_radius)
-  int spp = 0;                        // per pass
-  int passes = 0;                     // 0: as many as the time budget allows
-  double pilot_seconds = 0.0;         // the scale pilot (0: none ran)
-};
-
 struct RenderSettings {
   int width = 0;  // 0: the scene's film size
   int height = 0;
@@ -45,8 +34,9 @@ struct RenderSettings {
   size_t memory_budget = 0;  // device bytes all of a render's buffers may hold at once; 0: the device's memory
   // When set, no new pass starts; the passes in flight finish (SIGINT).
   const std::atomic<bool>* stop = nullptr;
-  // Called once before the first pass with the settings in use.
-  std::function<void(const RenderUsed&)> announce;
+  // Called once before the first pass with the scene as it renders, every
+  // setting derived (defaults.h, fill_derived), and the scale pilot's seconds.
+  std::function<void(const Scene&, double)> announce;
 };
 
 struct DeviceStats {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <optional>
 
+#include "render/tuning.h"
 #include "scene/bvh.h"
 #include "scene/light_power.h"
 #include "util/errors.h"

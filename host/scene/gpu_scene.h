@@ -29,17 +29,6 @@ struct SceneTables {
   double bvh_seconds = 0.0;
 };
 
-// A light in a medium lights the medium around it, and the light scattered
-// once there arrives with a radiance of about 1 / sin alpha at an angle
-// alpha from the light, up to the angle the light subtends: the smaller the
-// light, the more of that glow a cosine-weighted final-gather ray misses.
-// Final-gather rays are aimed at the lights in a medium no larger than this
-// share of the scene's diagonal (half their bounding box's diagonal; point
-// and spot lights: 0): caustic_area's sphere light is 0.8% of it,
-// cornell_fog's ceiling light 10% and the fog box's 8%, where aiming gave
-// 10% more error and none less (docs/experiments/caustics.md "Gather rays aimed at the glow").
-inline constexpr double kAimedLightSize = 0.05;
-
 // Flattens `scene` for film size width x height. Throws InputError when the
 // scene cannot be rendered (no light with positive power, ...).
 SceneTables flatten_scene(const Scene& scene, int width, int height);

@@ -8,7 +8,7 @@
 #include <set>
 #include <utility>
 
-#include "scene/integrator_options.h"
+#include "scene/settings.h"
 #include "scene/light_power.h"
 #include "scene/media_regions.h"
 #include "scene/obj.h"
@@ -760,48 +760,7 @@ class Loader {
     IntegratorSettings& s = scene_.integrator;
     s.present = true;
     s.where = ctx_.where(node);
-    auto int_at_least = [&](const char* name, int& field, int lowest) {
-      if (std::optional<int> v = p.get_int(name)) {
-        if (*v < lowest) p.fail(name, std::string(name) + " must be at least " + std::to_string(lowest));
-        field = *v;
-      }
-    };
-    int_at_least("streams", s.streams, 1);
-    int_at_least("associated", s.associated, 1);
-    int_at_least("max_bounces", s.max_bounces, -1);
-    int_at_least("beam_streams", s.beam_streams, 1);
-    int_at_least("passes", s.passes, 1);
-    int_at_least("max_depth", s.max_depth, -1);
-    int_at_least("rr_depth", s.rr_depth, 1);
-    int_at_least("emission_chains", s.emission_chains, 0);
-    int_at_least("volume_every", s.volume_every, 1);
-    auto checked_float = [&](const char* name, float& field, bool strictly_positive) {
-      if (std::optional<float> v = p.get_float(name)) {
-        if (strictly_positive ? !(*v > 0.0f) : !(*v >= 0.0f))
-          p.fail(name, std::string(name) + (strictly_positive ? " must be positive" : " must not be negative"));
-        field = *v;
-      }
-    };
-    checked_float("radius", s.radius, true);
-    checked_float("width", s.stream_width, true);
-    checked_float("march_step", s.march_step, false);
-    checked_float("volume_radius", s.volume_radius, true);
-    checked_float("time", s.time, false);
-    const auto option = [&](const IntegratorOption& o, std::string& field) {
-      if (std::optional<std::string> v = p.get_string(o.property)) {
-        if (!o.has(*v)) p.fail(o.property, "unknown " + std::string(o.what) + " '" + *v + "' (" + o.listed() + ")");
-        field = *v;
-      }
-    };
-    option(kEstimatorOption, s.estimator);
-    option(kDensityKernelOption, s.density_kernel);
-    option(kDirectOption, s.direct);
-    if (std::optional<bool> fg = p.get_bool("final_gather")) s.final_gather = *fg;
-    if (std::optional<bool> wi = p.get_bool("wall_images")) s.wall_images = *wi;
-    if (std::optional<float> a = p.get_float("alpha")) {
-      if (!(*a > 0.0f && *a < 1.0f)) p.fail("alpha", "alpha must be in (0, 1)");
-      s.alpha = *a;
-    }
+    read_settings(p, s);
     p.finish();
     no_objects(p);
     register_id(node, -1);

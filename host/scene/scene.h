@@ -97,55 +97,43 @@ struct Camera {
   std::string where;
 };
 
-// <integrator type="spm"> properties. Values not given in the file keep these
-// defaults; command-line flags override both.
+// Where a setting's value came from (the settings line says).
+enum class SettingSource { Default, Scene, CommandLine, Derived };
+
+// The render's settings: the <integrator type="spm"> properties and the
+// command line's flags. What each means, its range and its derivation are
+// the table of scene/settings.h; the values here are the defaults, where 0
+// (or -1) may stand for "derived" or "unlimited" as the table says.
 struct IntegratorSettings {
   bool present = false;  // false when the file has no spm integrator
-  // 0: derived from the scene (host/render/defaults.h).
   int streams = 0;
   int associated = 0;
-  int beam_streams = 0;  // streams of a pass that write stream beams (METHOD.md 11)
+  int beam_streams = 0;
   float radius = 0.0f;
-  float stream_width = 0.0f;  // w (METHOD.md 1)
-  bool radius_derived = false, stream_width_derived = false;  // set by derive_scale
-  int max_bounces = -1;  // diffuse bounces before a stream ends; -1: unlimited (the paper: 4)
+  float stream_width = 0.0f;
+  int max_bounces = -1;
   float march_step = 0.0f;
-  int passes = 0;  // 0: as many as the sampler's sample_count needs (SCENES.md)
-  float time = 0.0f;  // seconds; 0: not time-limited
-  // Mitsuba's volpath counting (METHOD.md 10): the longest path in segments,
-  // -1 unlimited; Russian roulette from path vertex rr_depth on.
+  int spp = 0;  // per pass
+  int passes = 0;
+  float time = 0.0f;
+  int seed = 0;
   int max_depth = -1;
   int rr_depth = 5;
-  std::string estimator = "bre";    // bre | beams | paper (METHOD.md 5, 11)
-  std::string density_kernel = "uniform";  // uniform | epanechnikov
-  std::string direct = "nee";       // nee | photons
-  bool final_gather = true;         // one gather ray at the camera's diffuse vertex (with direct nee)
-  bool wall_images = true;          // volume records mirrored across walls (host/spm/wall_images.h)
-  // Radius reduction of progressive passes (METHOD.md 6: 0.9 by
-  // measurement, not Knaus & Zwicker's rate-optimal 2/3). 0.8 gave 9-22% less
-  // error than 2/3 at 10 and 30 s (docs/experiments/defaults.md "A slower radius schedule"); once
-  // the volume records' images took the walls' bias away (wall_images),
-  // 0.9 gave 4-19% less than 0.8 at 30 s on cornell_fog, the fog box and
-  // caustic_area (docs/experiments/volume-kernels.md "Volume estimates that stop at walls"). The photon
-  // noise, not the radius's bias, is most of the error at the pass counts
-  // users run.
+  std::string estimator = "bre";
+  std::string density_kernel = "uniform";
+  std::string direct = "nee";
+  bool final_gather = true;
+  bool wall_images = true;
   float alpha = 0.9f;
-  // Camera rays per sample that bring the emission seen in pixels whose
-  // corners see a mirror or glass (spm_gather.cl, emission_chains); 0: each
-  // sample's path brings it, everywhere.
   int emission_chains = 64;
-  // One camera sample in volume_every per pixel and pass adds the camera
-  // segments' volume estimate, weighted to stand for the others: the
-  // estimate is the same pass's records for every sample of a pixel, and
-  // it is the gather's costliest term (docs/experiments/volume-kernels.md "Camera volume estimates
-  // for one sample in four").
   int volume_every = 4;
-  // The volume records' kernel radius in the first pass, shrinking with the
-  // radius; 0: derived (render/defaults.h, derived_volume_radius). A thin
-  // fog's multiple scattering is smooth where a caustic on a surface is
-  // sharp (docs/experiments/volume-kernels.md "A wider kernel in thin fog", "A wider volume kernel by
-  // default").
   float volume_radius = 0.0f;
+  // By setting name; Default where absent.
+  std::map<std::string, SettingSource> sources;
+  SettingSource source(const std::string& name) const {
+    const auto it = sources.find(name);
+    return it == sources.end() ? SettingSource::Default : it->second;
+  }
   std::string where;
 };
 

@@ -8,23 +8,13 @@
 #include <vector>
 
 #include "device/device.h"
+#include "render/tuning.h"
 #include "spm/record_grid.h"
 #include "spm/propagate.h"
 #include "spm/wall_images.h"
 #include "spm_maps.h"
 
 namespace spm {
-
-// Edge of the surface map's point grid cells, in gather radii. A query
-// examines about (2 + kSurfaceCell)^2 r^2 of surface for the pi r^2 it uses
-// and reads the bounds of up to (2 / kSurfaceCell + 1)^2 rows of cells.
-inline constexpr float kSurfaceCell = 1.0f;
-
-// Edge of the stream beams' capsule grid cells, in beam radii: a ray
-// examines the beams of the cells it crosses, which lie within about
-// r + (1/2 + sqrt(3)/2) kBeamCell r of it, and a beam of length L is listed
-// in about pi (1 + sqrt(3)/2 kBeamCell)^2 L / (kBeamCell^3 r) cells.
-inline constexpr float kBeamCell = 1.5f;
 
 // The gather's grids: the volume map's sphere grid, the surface map's
 // point grid and the stream beams' capsule grid (host/spm/record_grid.h).

@@ -1,6 +1,7 @@
 #include "spm/propagate.h"
 
 #include <algorithm>
+#include <stdexcept>
 #include <utility>
 
 #include "spm/record_order.h"
@@ -91,7 +92,7 @@ SpmStreamParams StreamPropagator::params() const {
   p.rr_depth = s.rr_depth;
   p.volume_capacity = volume_capacity_;
   p.surface_capacity = surface_capacity_;
-  p.beam_capacity = beam_capacity_;
+  p.beam_capacity = s.beams ? beam_capacity_ : 0u;
   p.beam_streams = std::min(s.beam_streams, s.streams);
   return p;
 }
@@ -166,7 +167,7 @@ void StreamPropagator::make_room(PhotonMaps& maps) {
   const size_t volume = size_t(counters_[SPM_COUNT_VOLUME]) + live_bound_;
   const size_t surface = size_t(counters_[SPM_COUNT_SURFACE]) + size_t(live_bound_) * settings_.associated;
   const size_t beams = size_t(counters_[SPM_COUNT_BEAMS]) + live_bound_;
-  if (volume > volume_capacity_ || surface > surface_capacity_ || (beam_capacity_ > 0 && beams > beam_capacity_)) {
+  if (volume > volume_capacity_ || surface > surface_capacity_ || (settings_.beams && beams > beam_capacity_)) {
     flush(maps);
     ++maps.stats.flushes;
   }
@@ -181,7 +182,7 @@ void StreamPropagator::flush(PhotonMaps& maps) {
   read_counters();
   device_.download_append(volume_, counters_[SPM_COUNT_VOLUME], maps.volume);
   device_.download_append(surface_, counters_[SPM_COUNT_SURFACE], maps.surface);
-  if (beam_capacity_ > 0) device_.download_append(beams_, counters_[SPM_COUNT_BEAMS], maps.beams);
+  if (settings_.beams) device_.download_append(beams_, counters_[SPM_COUNT_BEAMS], maps.beams);
   for (int k = SPM_COUNT_QUEUES; k < SPM_COUNTERS; ++k) {
     maps.stats.counters[k] += counters_[k];
     counters_[k] = 0;
@@ -219,6 +220,30 @@ PhotonMaps StreamPropagator::propagate(uint32_t pass, float width, uint32_t begi
   order_by_stream(maps.volume, begin, end - begin);
   order_by_stream(maps.surface, begin, end - begin);
   order_by_stream(maps.beams, begin, end - begin);
+  return maps;
+}
+
+void StreamPropagator::set_settings(const StreamSettings& s) {
+  if (s.associated != settings_.associated || s.beams != settings_.beams || s.streams > settings_.streams) {
+    throw std::logic_error("StreamPropagator::set_settings: the buffers were sized for other streams");
+  }
+  const size_t budget = settings_.memory_budget;
+  settings_ = s;
+  settings_.memory_budget = budget;
+}
+
+PhotonMaps StreamPropagator::propagate_leaders(uint32_t first, uint32_t count) {
+  const StreamSettings passes = settings_;
+  settings_.associated = 1;
+  settings_.beams = false;
+  PhotonMaps maps;
+  try {
+    maps = propagate(0, 0.0f, first, count);
+  } catch (...) {
+    settings_ = passes;
+    throw;
+  }
+  settings_ = passes;
   return maps;
 }
 

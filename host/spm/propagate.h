@@ -66,6 +66,17 @@ class StreamPropagator {
 
   const StreamSettings& settings() const { return settings_; }
 
+  // The settings of the passes from now on: the same associated photons
+  // and beams as the propagator was made for, and at most as many streams,
+  // so that its buffers still fit (a timed render's fewer streams per pass).
+  void set_settings(const StreamSettings& settings);
+
+  // The scale pilot's propagation (render/defaults.h): streams [first,
+  // first + count) of pass 0 with one photon each, at the leader, and no
+  // width or beams: the positions of the leaders' events, which the width
+  // does not change, on the passes' own buffers.
+  PhotonMaps propagate_leaders(uint32_t first, uint32_t count);
+
   // Emits streams [first, first + count) of the pass (count <= capacity) and
   // gives their associated photons offsets in the disk around the origin
   // (respawn: the offset frame deposit draws them from).

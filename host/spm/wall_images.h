@@ -37,6 +37,7 @@ class WallImages {
   // `reach`: the largest radius add() will be asked for (the first pass's
   // volume radius: it shrinks over passes, METHOD.md 6).
   WallImages(const SceneTables& tables, float reach);
+  WallImages() = default;  // no walls
 
   // Appends to `records` the image of each record within `radius` (at most
   // the reach) of a wall's plane, on either side, whose foot on the plane
@@ -73,7 +74,7 @@ class WallImages {
   std::vector<Wall> walls_;
   // A uniform grid over the walls' bounds, each cell listing (CSR) the
   // walls whose slab of half-depth `reach_` meets it.
-  float reach_;
+  float reach_ = 0.0f;
   glm::vec3 lo_{0.0f}, cell_{1.0f};
   glm::ivec3 dims_{1};
   std::vector<uint32_t> cell_start_, cell_walls_;

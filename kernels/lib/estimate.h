@@ -10,11 +10,6 @@
 #include "medium.h"
 #include "phase.h"
 
-/* A surface record counts if it lies within this fraction of r of the query's
- * tangent plane: the disk of METHOD.md 5, given the thickness a curved surface
- * or a corner needs and no more. */
-#define SPM_DISK_THICKNESS 0.1f
-
 /* 2D kernel normalised over the disk of radius r (d2, r2: squared distance
  * and radius): uniform 1/(pi r^2), or Epanechnikov 2/(pi r^2) (1 - d^2/r^2),
  * the smooth kernel the paper leaves to future work. */

@@ -103,8 +103,6 @@ inline float3 table_surface_estimate(const SpmMapTable* t, uint reader, float3 x
  * its own vertex. The reach scales with r, so as the passes shrink r below
  * a few pixels the reuse stops and the estimate stays consistent
  * (METHOD.md 21). */
-#define SPM_REUSE_DISTANCE 0.25f
-#define SPM_REUSE_COS 0.999f
 
 typedef struct SpmSurfaceReuse {
   float3 p, n, flux;

@@ -306,9 +306,6 @@ inline float3 medium_transmittance(const SpmMedia* md, int m, float3 o, float3 d
   return transmittance;
 }
 
-/* Knots of the optical-depth table a camera segment's estimates share. */
-#define SPM_TABLE_KNOTS 32
-
 /* Optical depth from `t` and albedo along one piece of a camera segment in
  * a heterogeneous medium, at knots t + k h: computed once for the piece
  * and read by every record on it (METHOD.md 12), never marched per record.
