@@ -18,6 +18,7 @@
 #include "lib/lights.h"
 #include "lib/maps.h"
 #include "lib/rng.h"
+#include "lib/walk.h"
 
 /* What the estimates need, bundled for the path loop. */
 typedef struct SpmMaps {
@@ -33,34 +34,18 @@ typedef struct SpmMaps {
   float march_step; /* Delta of heterogeneous media (medium.h) */
 } SpmMaps;
 
-/* Random-number lanes of a heterogeneous medium's ratio tracking
- * (SPM_RNG_TRANSMITTANCE), 2^16 per medium segment: segment `i` of
- * transmittance call `call` of a path vertex. */
-#define SPM_TR_CAMERA 0u
-#define SPM_TR_DIRECT 1u
-#define SPM_TR_NEE_CAMERA 2u
-#define SPM_TR_NEE_SHADOW 3u
-#define SPM_TR_FINAL_GATHER 4u
-#define SPM_TR_EMISSION 5u /* and up: chain j of emission_chains uses call 5 + j */
-inline uint tr_lane(uint call, uint i) { return ((call << 5) | i) << 16; }
-
 /* Transmittance from o towards a light at `dist` along d, through null
- * boundaries (switching the medium at each); 0 when an opaque surface blocks. */
+ * boundaries (switching the medium at each); 0 when an opaque surface
+ * blocks, or past SPM_MAX_SHADOW_CROSSINGS of them. */
 inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float dist, int medium, float step,
                                    SpmRng rng, uint call) {
   float3 tr = (float3)(1.0f);
-  float remaining = dist;
-  for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
-    SpmHit h;
-    if (!scene_intersect(s, o, d, remaining, &h))
-      return tr * medium_transmittance(&s->md, medium, o, d, 0.0f, remaining, step, rng, tr_lane(call, i));
-    const SpmSurface surf = scene_surface(s, o, d, h);
-    const __global SpmShape* shape = &s->shapes[surf.shape];
-    if (s->materials[shape->material].type != SPM_MAT_NULL) return (float3)(0.0f);
-    tr *= medium_transmittance(&s->md, medium, o, d, 0.0f, h.t, step, rng, tr_lane(call, i));
-    medium = target_medium(shape, surf.ng, d, medium);
-    o = leave_surface(&surf, d);
-    remaining -= h.t;
+  SpmWalk w;
+  walk_ray(&w, o, d, dist, medium, rng, call);
+  while (walk_next(s, &w)) {
+    if (w.hit && w.state != SPM_WALK_CROSS) return (float3)(0.0f);
+    tr *= walk_transmittance(s, &w, step);
+    if (!w.hit) return tr;
   }
   return (float3)(0.0f);
 }
@@ -278,7 +263,7 @@ inline float3 volume_estimate(const SpmScene* s, const SpmMaps* maps, uint reade
 }
 
 /* The camera segment's volume estimate, shared by a block's samples
- * (volume_reuse_hit, lib/estimate.h). */
+ * (volume_reuse_hit, lib/maps.h). */
 inline float3 camera_volume_estimate(SpmVolumeReuse* reuse, const SpmScene* s, const SpmMaps* maps, int medium,
                                      float3 o, float3 d, float t0, float t1, uint min_depth, uint max_depth,
                                      uint* tests) {
@@ -406,55 +391,45 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
                                        rng4(rng, SPM_RNG_FINAL_GATHER, 0u).x, &weight);
     if (!(weight > 0.0f)) return li;
     tr *= weight;
-    float3 o = leave_surface(&x, wi);
-    medium = target_medium(&s->shapes[x.shape], x.ng, wi, medium);
+    SpmWalk w;
+    walk_ray(&w, leave_surface(&x, wi), wi, SPM_INF, target_medium(&s->shapes[x.shape], x.ng, wi, medium), rng,
+             SPM_TR_FINAL_GATHER);
     /* The direct light at the ray's end: events of its own, as the camera
      * vertex's are its own. */
-    SpmRng own = rng;
-    own.event = (rng.event & ~255u) + SPM_GATHER_EVENT + hop;
+    SpmRng own;
+    hop_rng(&own, rng, hop);
     const bool direct =
         maps->direct_terms && (maps->terms & SPM_TERM_GATHER_DIRECT) && within_depth(segments + hop + 2u, max_depth);
     const bool surface = (maps->terms & SPM_TERM_GATHER_SURFACE) != 0u;
     float reach = 0.0f;
     bool next = false;
-    for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
-      SpmHit h;
-      const bool hit = scene_intersect(s, o, wi, SPM_INF, &h);
-      if (medium >= 0) {
-        const float t_end = hit ? h.t : SPM_INF;
-        if (maps->terms & SPM_TERM_GATHER_VOLUME) {
-          li += tr * volume_estimate(s, maps, SPM_READ_GATHER, medium, o, wi, 0.0f, t_end, 1u, depth_limit, tests);
-        }
+    while (walk_next(s, &w)) {
+      if (w.medium >= 0 && (maps->terms & SPM_TERM_GATHER_VOLUME)) {
+        li += tr * volume_estimate(s, maps, SPM_READ_GATHER, w.medium, w.o, wi, w.t0, w.t1, 1u, depth_limit, tests);
       }
-      if (!hit) break;
-      tr *= medium_transmittance(&s->md, medium, o, wi, 0.0f, h.t, maps->march_step, rng,
-                                 tr_lane(SPM_TR_FINAL_GATHER, (uint)i));
-      reach += h.t;
-      const SpmSurface y = scene_surface(s, o, wi, h);
-      const __global SpmShape* shape = &s->shapes[y.shape];
-      const __global SpmMaterial* m = &s->materials[shape->material];
-      if (m->type == SPM_MAT_NULL) {
-        medium = target_medium(shape, y.ng, wi, medium);
-        o = leave_surface(&y, wi);
-        continue;
-      }
-      if (m->type != SPM_MAT_DIFFUSE || !reflects_from(m, &y, wi)) break;
-      const float3 n = facing_normal(&y, wi);
+      if (!w.hit) break;
+      tr *= walk_transmittance(s, &w, maps->march_step);
+      reach += w.t1;
+      if (w.state == SPM_WALK_CROSS) continue;
+      const __global SpmMaterial* m = w.material;
+      if (m->type != SPM_MAT_DIFFUSE || !reflects_from(m, &w.surf, wi)) break;
+      const float3 n = facing_normal(&w.surf, wi);
       rng = own;
-      if (direct) li += tr * direct_diffuse(s, &y, m, wi, medium, maps->march_step, rng);
-      const SpmPatchFrame patch = patch_frame(s->patches, y.patch);
+      medium = w.medium;
+      if (direct) li += tr * direct_diffuse(s, &w.surf, m, wi, medium, maps->march_step, rng);
+      const SpmPatchFrame patch = patch_frame(s->patches, w.surf.patch);
       if (hop < SPM_GATHER_HOPS && reach < SPM_GATHER_NEAR * maps->radius) {
         tr *= load3(m->reflectance);
         if (surface) {
           li += tr * SPM_INV_PI *
-                table_surface_estimate(&maps->table, SPM_READ_GATHER_HOP, y.p, n, depth_limit, &patch);
+                table_surface_estimate(&maps->table, SPM_READ_GATHER_HOP, w.surf.p, n, depth_limit, &patch);
         }
-        x = y;
+        x = w.surf;
         d = wi;
         next = true;
       } else if (surface) {
         li += tr * load3(m->reflectance) * SPM_INV_PI *
-              table_surface_estimate(&maps->table, SPM_READ_GATHER_END, y.p, n, depth_limit, &patch);
+              table_surface_estimate(&maps->table, SPM_READ_GATHER_END, w.surf.p, n, depth_limit, &patch);
       }
       break;
     }
@@ -471,28 +446,18 @@ inline float3 seen_emission(const SpmScene* s, const __global SpmShape* shape, c
   return load3(s->lights[shape->light].emission);
 }
 
-/* A camera path's step past surf: through a null boundary (switching the
- * medium), or off a mirror or glass (METHOD.md 3) by the uniform of
- * (rng, purpose, lane), counting the specular vertex. False where the path
- * ends: at a diffuse surface, past the specular cap or max_depth, or where
- * the bounce has no weight. */
-inline bool camera_step(const __global SpmShape* shape, const __global SpmMaterial* m, const SpmSurface* surf,
-                        SpmRng rng, uint purpose, uint lane, uint max_depth, uint* specular, float3* beta, int* medium,
-                        float3* o, float3* d) {
-  if (m->type == SPM_MAT_NULL) {
-    *medium = target_medium(shape, surf->ng, *d, *medium);
-    *o = leave_surface(surf, *d);
-    return true;
-  }
-  if (m->type == SPM_MAT_DIFFUSE) return false;
+/* A camera path's turn at the mirror or glass its walk's segment ended on
+ * (METHOD.md 3), by the uniform of (rng, purpose, lane), counting the
+ * specular vertex. False where the path ends: past the specular cap or
+ * max_depth, or where the bounce has no weight. */
+inline bool specular_turn(SpmWalk* w, SpmRng rng, uint purpose, uint lane, uint max_depth, uint* specular,
+                          float3* beta) {
   if (++*specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(*specular + 1u, max_depth)) return false;
   float3 next;
-  const float f = specular_bounce(m, surf, *d, rng4(rng, purpose, lane).x, true, &next);
+  const float f = specular_bounce(w->material, &w->surf, w->d, rng4(rng, purpose, lane).x, true, &next);
   if (f == 0.0f) return false;
   *beta *= f;
-  *medium = target_medium(shape, surf->ng, next, *medium);
-  *o = leave_surface(surf, next);
-  *d = next;
+  walk_turn(w, next);
   return true;
 }
 
@@ -502,18 +467,13 @@ inline bool sees_chain_start(const SpmScene* s, const __global SpmCamera* cam, f
   float3 o;
   float tmin, tmax;
   const float3 d = camera_ray(cam, fx, fy, &o, &tmin, &tmax);
-  for (int i = 0; i < SPM_MAX_SHADOW_CROSSINGS; ++i) {
-    SpmHit h;
-    if (!scene_intersect(s, o + tmin * d, d, tmax - tmin, &h)) return false;
-    h.t += tmin;
-    const SpmSurface surf = scene_surface(s, o, d, h);
-    const __global SpmShape* shape = &s->shapes[surf.shape];
-    const uint type = s->materials[shape->material].type;
-    if (type == SPM_MAT_MIRROR || type == SPM_MAT_DIELECTRIC) return true;
-    if (type != SPM_MAT_NULL) return false;
-    o = leave_surface(&surf, d);
-    tmin = 0.0f;
-    tmax = SPM_INF;
+  SpmWalk w;
+  walk_begin(&w, o, d, tmin, tmax, cam->medium, SPM_WALK_PATH, rng_make(0u, 0u, 0u, 0u), SPM_TR_CAMERA,
+             SPM_MAX_SHADOW_CROSSINGS, false);
+  while (walk_next(s, &w)) {
+    if (!w.hit) return false;
+    if (w.state == SPM_WALK_CROSS) continue;
+    return w.material->type == SPM_MAT_MIRROR || w.material->type == SPM_MAT_DIELECTRIC;
   }
   return false;
 }
@@ -533,7 +493,6 @@ inline bool sees_chain_start(const SpmScene* s, const __global SpmCamera* cam, f
 inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, uint px,
                               uint py, uint max_depth, SpmRng rng, uint chains) {
   float3 sum = (float3)(0.0f);
-  const uint first_event = rng.event;
   for (uint j = 0; j < chains; ++j) {
     SpmRng r = rng;
     r.sample = rng.sample * chains + j;
@@ -541,24 +500,18 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
     const float2 off = sample_filter(cam, u.x, u.y);
     float3 o;
     float tmin, tmax;
-    float3 d = camera_ray(cam, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
+    const float3 d = camera_ray(cam, (float)px + 0.5f + off.x, (float)py + 0.5f + off.y, &o, &tmin, &tmax);
     float3 beta = (float3)(1.0f);
-    int medium = cam->medium;
     uint specular = 0;
-    for (uint vertex = 0; vertex < 4u * SPM_MAX_CAMERA_SPECULAR + 4u; ++vertex) {
-      r.event = first_event + vertex;
-      SpmHit h;
-      if (!scene_intersect(s, o + tmin * d, d, tmax - tmin, &h)) break;
-      h.t += tmin;
-      beta *= medium_transmittance(&s->md, medium, o, d, tmin, h.t, maps->march_step, r,
-                                   tr_lane(SPM_TR_EMISSION + j, 0u));
-      const SpmSurface surf = scene_surface(s, o, d, h);
-      const __global SpmShape* shape = &s->shapes[surf.shape];
-      sum += beta * seen_emission(s, shape, &surf, d, specular, max_depth);
-      tmin = 0.0f;
-      tmax = SPM_INF;
-      if (!camera_step(shape, &s->materials[shape->material], &surf, r, SPM_RNG_EMISSION, j, max_depth, &specular,
-                       &beta, &medium, &o, &d))
+    SpmWalk w;
+    walk_path(&w, o, d, tmin, tmax, cam->medium, r, SPM_TR_EMISSION + j);
+    while (walk_next(s, &w)) {
+      if (!w.hit) break;
+      beta *= walk_transmittance(s, &w, maps->march_step);
+      sum += beta * seen_emission(s, w.shape, &w.surf, w.d, specular, max_depth);
+      if (w.state == SPM_WALK_CROSS) continue;
+      if (w.material->type == SPM_MAT_DIFFUSE ||
+          !specular_turn(&w, w.rng, SPM_RNG_EMISSION, j, max_depth, &specular, &beta))
         break;
     }
   }
@@ -576,16 +529,13 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
                        SpmSurfaceReuse* reuse, SpmVolumeReuse* volume_reuse, uint* tests) {
   float3 L = (float3)(0.0f);
   float3 beta = (float3)(1.0f);
-  int medium = cam->medium;
   uint specular = 0;
   bool crossed_medium = false;
-  const uint first_event = rng.event;
-  for (uint vertex = 0; vertex < 4u * SPM_MAX_CAMERA_SPECULAR + 4u; ++vertex) {
-    rng.event = first_event + vertex;
-    SpmHit h;
-    const bool hit = scene_intersect(s, o + tmin * d, d, tmax - tmin, &h);
-    const float t_end = hit ? h.t + tmin : tmax;
-    if (medium >= 0) {
+  SpmWalk w;
+  walk_path(&w, o, d, tmin, tmax, cam->medium, rng, SPM_TR_CAMERA);
+  while (walk_next(s, &w)) {
+    const SpmRng r = w.rng;
+    if (w.medium >= 0) {
       /* With next-event estimation single scattering (depth 1) is its. */
       const uint min_depth = maps->direct == SPM_DIRECT_NEE ? 2u : 0u;
       const uint depth_limit = record_depth_limit(max_depth, specular);
@@ -595,57 +545,54 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
       crossed_medium = true;
       if ((maps->terms & SPM_TERM_VOLUME) && volume_weight > 0.0f) {
         L += beta * volume_weight *
-             (first ? camera_volume_estimate(volume_reuse, s, maps, medium, o, d, tmin, t_end, min_depth, depth_limit,
-                                             tests)
-                    : volume_estimate(s, maps, SPM_READ_CAMERA, medium, o, d, tmin, t_end, min_depth, depth_limit,
-                                      tests));
+             (first ? camera_volume_estimate(volume_reuse, s, maps, w.medium, w.o, w.d, w.t0, w.t1, min_depth,
+                                             depth_limit, tests)
+                    : volume_estimate(s, maps, SPM_READ_CAMERA, w.medium, w.o, w.d, w.t0, w.t1, min_depth,
+                                      depth_limit, tests));
       }
       /* Single scattering makes the path specular + 2 segments long. */
       if (maps->direct_terms && (maps->terms & SPM_TERM_INSCATTER) && maps->direct == SPM_DIRECT_NEE &&
           within_depth(specular + 2u, max_depth)) {
-        L += beta * medium_nee(s, medium, o, d, tmin, t_end, maps->march_step, rng);
+        L += beta * medium_nee(s, w.medium, w.o, w.d, w.t0, w.t1, maps->march_step, r);
       }
     }
     /* Escaping: outside a medium there is no environment light in the
      * supported subset, inside one the light has all been gathered. */
-    if (!hit) break;
-    h.t = t_end;
-    beta *= medium_transmittance(&s->md, medium, o, d, tmin, h.t, maps->march_step, rng, tr_lane(SPM_TR_CAMERA, 0u));
-    const SpmSurface surf = scene_surface(s, o, d, h);
-    const __global SpmShape* shape = &s->shapes[surf.shape];
-    const __global SpmMaterial* m = &s->materials[shape->material];
+    if (!w.hit) break;
+    beta *= walk_transmittance(s, &w, maps->march_step);
+    const SpmSurface surf = w.surf;
+    const __global SpmMaterial* m = w.material;
     /* Emission seen directly or through specular chains, unless the pixel's
      * emission chains bring it (emission_chains): paths end at their first
      * diffuse vertex, whose light NEE and the photon maps provide. */
-    if (emission) L += beta * seen_emission(s, shape, &surf, d, specular, max_depth);
-    tmin = 0.0f;
-    tmax = SPM_INF;
+    if (emission) L += beta * seen_emission(s, w.shape, &surf, w.d, specular, max_depth);
+    if (w.state == SPM_WALK_CROSS) continue;
     if (m->type == SPM_MAT_DIFFUSE) {
-      if (reflects_from(m, &surf, d)) {
+      if (reflects_from(m, &surf, w.d)) {
         const bool nee = maps->direct_terms && (maps->terms & SPM_TERM_DIRECT) && maps->direct == SPM_DIRECT_NEE &&
                          within_depth(specular + 2u, max_depth);
-        if (nee) L += beta * direct_diffuse(s, &surf, m, d, medium, maps->march_step, rng);
+        if (nee) L += beta * direct_diffuse(s, &surf, m, w.d, w.medium, maps->march_step, r);
         const uint depth_limit = record_depth_limit(max_depth, specular);
         if (maps->final_gather) {
           float3 caustic = (float3)(0.0f), gathered = (float3)(0.0f);
           if (maps->terms & SPM_TERM_SURFACE) {
-            caustic = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p, facing_normal(&surf, d),
+            caustic = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p, facing_normal(&surf, w.d),
                                              maps->radius, depth_limit, s->patches, surf.patch);
           }
           if (maps->terms & SPM_TERMS_GATHER) {
-            gathered = final_gather(s, maps, &surf, d, medium, specular + 1u, max_depth, rng, tests);
+            gathered = final_gather(s, maps, &surf, w.d, w.medium, specular + 1u, max_depth, r, tests);
           }
           L += beta * load3(m->reflectance) * (SPM_INV_PI * caustic + gathered);
         } else if (maps->terms & SPM_TERM_SURFACE) {
           const float3 flux = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p,
-                                                     facing_normal(&surf, d), maps->radius, depth_limit, s->patches,
+                                                     facing_normal(&surf, w.d), maps->radius, depth_limit, s->patches,
                                                      surf.patch);
           L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
         }
       }
       break;
     }
-    if (!camera_step(shape, m, &surf, rng, SPM_RNG_BSDF, 0u, max_depth, &specular, &beta, &medium, &o, &d)) break;
+    if (!specular_turn(&w, r, SPM_RNG_BSDF, 0u, max_depth, &specular, &beta)) break;
   }
   return L;
 }
@@ -654,7 +601,7 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
  * block per work-item (spm_types.h), so that neighbouring pixels' samples
  * share surface estimates (pixel_surface_estimate) and the volume estimate
  * of the camera ray's first medium segment (volume_reuse_hit, both in
- * lib/estimate.h): at 1 sample per pixel the 2x2 pixels then read one disk
+ * lib/maps.h): at 1 sample per pixel the 2x2 pixels then read one disk
  * instead of four while the disk spans several pixels. */
 __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __global SpmCamera* camera,
                          __global float4* film, __global uint* errors,
@@ -700,8 +647,9 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
     uint tests = 0;
     float3 sum = (float3)(0.0f);
     for (uint i = 0; i < params.spp; ++i) {
-      /* Event index: a block of 256 per sample, one per path vertex. */
-      SpmRng rng = rng_gather(params.seed, params.pass, pixel, i * 256u);
+      /* Events: a block of SPM_SAMPLE_EVENTS per sample, which its walks
+       * share out (lib/walk.h). */
+      SpmRng rng = rng_gather(params.seed, params.pass, pixel, i * SPM_SAMPLE_EVENTS);
       rng.sample = params.first_sample + i;
       rng.strata = params.strata_seed;
       const float2 u = stratify2(rng, SPM_RNG_CAMERA, 0u);

@@ -74,6 +74,7 @@
   F(SpmGatherParams, volume_radius) F(SpmGatherParams, gather_aim) F(SpmGatherParams, grids)   \
   F(SpmGatherParams, first_pixel) F(SpmGatherParams, count)                                     \
   F(SpmGridInfo, lo) F(SpmGridInfo, cell) F(SpmGridInfo, dims) F(SpmGridInfo, records)           \
-  F(SpmMapGrid, info) F(SpmMapGrid, first_cell) F(SpmMapGrid, kind) F(SpmMapGrid, radius)
+  F(SpmMapGrid, info) F(SpmMapGrid, first_cell) F(SpmMapGrid, first_item) F(SpmMapGrid, kind)            \
+  F(SpmMapGrid, radius)
 
 #endif

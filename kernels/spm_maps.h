@@ -19,7 +19,7 @@ typedef cl_float4 spm_float4;
 
 #define SPM_MAP_BUFFERS(X)                                                                          \
   X(SpmMapGrid, grids)              /* the grid table, one row per role */                        \
-  X(spm_uint, grid_cells)           /* every row's cell starts (CSR), indices into grid_pos */    \
+  X(spm_uint, grid_cells)           /* every row's cell starts (CSR), from its first item */      \
   X(spm_float4, grid_pos)           /* per item: the record's position; w: its index in         */ \
                                     /* volume_records or beams (as_uint), or, in a disk grid,   */ \
                                     /* its packed normal (estimate.h, unpack_normal)            */ \

@@ -27,8 +27,11 @@
 #define SPM_GATHER_HOPS 2u
 #define SPM_GATHER_EVENT 248u
 
-/* The camera vertices' events and the hops' stay apart in a sample's 256. */
-#if 4u * SPM_MAX_CAMERA_SPECULAR + 4u > SPM_GATHER_EVENT || SPM_GATHER_EVENT + SPM_GATHER_HOPS + 1u > 256u
+/* Random-number events of a camera sample (spm_gather): its path's
+ * segments from the first (at most 4 per specular vertex, null crossings
+ * included; lib/walk.h), then its gather hops' from SPM_GATHER_EVENT. */
+#define SPM_SAMPLE_EVENTS 256u
+#if 4u * SPM_MAX_CAMERA_SPECULAR + 4u > SPM_GATHER_EVENT || SPM_GATHER_EVENT + SPM_GATHER_HOPS + 1u > SPM_SAMPLE_EVENTS
 #error "a sample's random-number events overlap"
 #endif
 

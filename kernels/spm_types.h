@@ -391,16 +391,16 @@ typedef struct SpmGridInfo {
 
 /* One row of the gather's grid table (kernels/spm_maps.h; the host's
  * roles are in host/spm/map_grids.cpp). The grid's cell starts are
- * grid_cells[first_cell .. first_cell + cells], indices of its items in
- * the buffers all grids share. */
+ * grid_cells[first_cell .. first_cell + cells], indices of its items from
+ * first_item in the item buffers all grids share. */
 typedef struct SpmMapGrid {
   SpmGridInfo info;
   spm_uint first_cell;
+  spm_uint first_item;
   spm_uint kind; /* SPM_GRID_* */
   /* The kernel radius each reader (SPM_READ_*) reads the grid with in the
    * pass; 0: that reader does not read it. */
   spm_float radius[SPM_READERS];
-  spm_uint pad;
 } SpmMapGrid;
 
 #endif

@@ -65,8 +65,8 @@ inline MapGridData::Radii read_by(cl_uint reader, float radius) {
 inline MapGridData sphere_table(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records, float radius,
                                 cl_uint reader = SPM_READ_CAMERA) {
   MapGridData d;
-  d.volume_records = records;
-  d.add_spheres(grid, read_by(reader, radius));
+  d.volume_records.append(records);
+  d.add_spheres(grid, records, read_by(reader, radius));
   return d;
 }
 
@@ -85,7 +85,7 @@ inline MapGridData disk_table(const std::vector<SpmSurfaceRecord>& records, cons
 
 inline MapGridData capsule_table(const std::vector<SpmBeam>& beams, float radius, cl_uint reader = SPM_READ_CAMERA) {
   MapGridData d;
-  d.beams = beams;
+  d.beams.append(beams);
   d.add_capsules(beam_grid(beams, radius), read_by(reader, radius));
   return d;
 }
@@ -138,7 +138,7 @@ inline std::vector<uint32_t> listed(const MapGridData& d, size_t row) {
   std::vector<uint32_t> out;
   for (uint32_t k = d.grid_cells[g.first_cell]; k < d.grid_cells[g.first_cell + cells]; ++k) {
     uint32_t index;
-    std::memcpy(&index, &d.grid_pos[k].s[3], sizeof index);
+    std::memcpy(&index, &d.grid_pos[g.first_item + k].s[3], sizeof index);
     out.push_back(index);
   }
   return out;

@@ -298,8 +298,9 @@ TEST(GridTable, DiskGridsComeFirst) {
     EXPECT_FALSE(others && role.kind == SPM_GRID_DISKS) << role.name;
   }
   spm::MapGridData d;
-  d.volume_records.resize(1);
-  d.add_spheres(spm::build_sphere_grid({glm::vec3(0.0f)}, 1.0f), {});
+  const std::vector<SpmVolumeRecord> one(1);
+  d.volume_records.append(one);
+  d.add_spheres(spm::build_sphere_grid({glm::vec3(0.0f)}, 1.0f), one, {});
   EXPECT_THROW(d.add_disks(spm::build_point_grid({}, 1.0f), nullptr, {}, {}), std::logic_error);
 }
 

@@ -132,7 +132,7 @@ TEST(VolumeRadius, CausticRecordsGetAGridOfTheirOwn) {
   EXPECT_EQ(d.grids[volume_row].radius[SPM_READ_CAMERA], volume_radius);
   // An item's position is its record's.
   const SpmMapGrid& g = d.grids[caustic_row];
-  const uint32_t first = d.grid_cells[g.first_cell];
+  const uint32_t first = g.first_item + d.grid_cells[g.first_cell];
   const std::vector<uint32_t> items = listed(d, caustic_row);
   for (size_t k = 0; k < items.size(); ++k) {
     EXPECT_EQ(d.grid_pos[first + k].s[0], d.volume_records[items[k]].position[0]);

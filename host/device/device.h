@@ -9,6 +9,7 @@
 #include <chrono>
 #include <map>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -71,6 +72,29 @@ class DeviceBuffer : public cl::Buffer {
   std::string name_;
 };
 
+// A device buffer's contents on the host in parts that upload one after
+// another into one buffer (Device::upload): the grid table's rows, each
+// built on a thread of its own, are never copied together on the host.
+template <class T>
+struct Pieces {
+  std::vector<std::vector<T>> parts;
+
+  void append(std::vector<T> part) { parts.push_back(std::move(part)); }
+  size_t size() const {
+    size_t n = 0;
+    for (const auto& p : parts) n += p.size();
+    return n;
+  }
+  const T& operator[](size_t i) const { return const_cast<Pieces*>(this)->operator[](i); }
+  T& operator[](size_t i) {
+    for (auto& p : parts) {
+      if (i < p.size()) return p[i];
+      i -= p.size();
+    }
+    throw std::out_of_range("Pieces: element past the end");
+  }
+};
+
 class Device {
  public:
   Device(const DeviceInfo& info, std::string kernel_dir);
@@ -122,6 +146,22 @@ class Device {
       cl::Event e;
       queue_.enqueueWriteBuffer(b, CL_TRUE, 0, sizeof(T) * data.size(), data.data(), nullptr, &e);
       launches_.push_back({"upload " + name, e, 0, 0, std::chrono::steady_clock::now()});
+    }
+    return b;
+  }
+
+  // A read-only buffer holding `data`'s parts one after another.
+  template <class T>
+  DeviceBuffer upload(const std::string& name, const Pieces<T>& data, cl_mem_flags flags = CL_MEM_READ_ONLY) {
+    const size_t size = data.size();
+    DeviceBuffer b = buffer(sizeof(T) * (size == 0 ? 1 : size), name, flags);
+    size_t offset = 0;
+    for (const std::vector<T>& part : data.parts) {
+      if (part.empty()) continue;
+      cl::Event e;
+      queue_.enqueueWriteBuffer(b, CL_TRUE, sizeof(T) * offset, sizeof(T) * part.size(), part.data(), nullptr, &e);
+      launches_.push_back({"upload " + name, e, 0, 0, std::chrono::steady_clock::now()});
+      offset += part.size();
     }
     return b;
   }

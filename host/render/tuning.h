@@ -3,7 +3,7 @@
 // value and where that was measured; the kernels' own are in
 // kernels/spm_tuning.h. tuning_constants() lists both for `spm settings`
 // and docs/TUNING.md, which the tests check against it. The settings
-// themselves are the table of host/render/settings.h.
+// themselves are the table of host/scene/settings.h.
 #pragma once
 
 #include <cstddef>

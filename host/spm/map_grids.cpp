@@ -47,7 +47,7 @@ using Radii = MapGridData::Radii;
 // grid of radius R serves any radius up to R; 0 when nothing reads it.
 float build_radius(const Radii& radii) { return *std::max_element(radii.begin(), radii.end()); }
 
-// Writes the items of `grid` from pos[0] (and, for disks, flux[0]): a
+// Writes the items of `grid` to pos (and, for disks, flux): a
 // sphere grid's over `volume` or a capsule grid's over beams, its record's
 // position and index; a disk grid's over surface[used[i]], its position
 // with the packed normal in w (kernels/lib/estimate.h, unpack_normal) and
@@ -55,7 +55,10 @@ float build_radius(const Radii& radii) { return *std::max_element(radii.begin(),
 // the records themselves. One pass for both arrays: each reads its record
 // once.
 void fill_items(const RecordGrid& grid, cl_uint kind, const std::vector<SpmVolumeRecord>& volume,
-                const SpmSurfaceRecord* surface, const std::vector<uint32_t>* used, cl_float4* pos, cl_float4* flux) {
+                const SpmSurfaceRecord* surface, const std::vector<uint32_t>* used, std::vector<cl_float4>& pos,
+                std::vector<cl_float4>& flux) {
+  pos.resize(grid.items.size());
+  if (kind == SPM_GRID_DISKS) flux.resize(grid.items.size());
   for (size_t k = 0; k < grid.items.size(); ++k) {
     const uint32_t i = grid.items[k];
     if (kind == SPM_GRID_SPHERES) {
@@ -196,41 +199,45 @@ size_t MapGridData::bytes() const {
   return n;
 }
 
-size_t MapGridData::add_row(const RecordGrid& grid, cl_uint kind, const Radii& radii) {
-  if (kind == SPM_GRID_DISKS && grid_pos.size() != surface_flux.size()) {
+void MapGridData::add_row(RecordGrid grid, cl_uint kind, const Radii& radii, std::vector<cl_float4> pos,
+                          std::vector<cl_float4> flux) {
+  const size_t first_item = grid_pos.size();
+  if (kind == SPM_GRID_DISKS && first_item != surface_flux.size()) {
     throw std::logic_error("a disk grid after another kind: surface_flux would not run parallel to grid_pos");
   }
-  const size_t base = grid_pos.size();
-  if (base + grid.items.size() > UINT32_MAX || grid_cells.size() + grid.cell_start.size() > UINT32_MAX) {
+  if (first_item + pos.size() > UINT32_MAX || grid_cells.size() + grid.cell_start.size() > UINT32_MAX) {
     throw RuntimeError("the photon maps' grids list more items than 32-bit indices hold");
   }
   SpmMapGrid g{};
   g.info = grid.info;
   g.first_cell = cl_uint(grid_cells.size());
+  g.first_item = cl_uint(first_item);
   g.kind = kind;
   std::copy(radii.begin(), radii.end(), g.radius);
-  grids.push_back(g);
-  grid_cells.reserve(grid_cells.size() + grid.cell_start.size());
-  for (uint32_t start : grid.cell_start) grid_cells.push_back(uint32_t(base) + start);
-  grid_pos.resize(base + grid.items.size());
-  if (kind == SPM_GRID_DISKS) surface_flux.resize(grid_pos.size());
-  return base;
+  grids.append({g});
+  grid_cells.append(std::move(grid.cell_start));
+  grid_pos.append(std::move(pos));
+  if (kind == SPM_GRID_DISKS) surface_flux.append(std::move(flux));
 }
 
-void MapGridData::add_spheres(const RecordGrid& grid, const Radii& radii) {
-  const size_t base = add_row(grid, SPM_GRID_SPHERES, radii);
-  fill_items(grid, SPM_GRID_SPHERES, volume_records, nullptr, nullptr, &grid_pos[base], nullptr);
+void MapGridData::add_spheres(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records,
+                              const Radii& radii) {
+  std::vector<cl_float4> pos, flux;
+  fill_items(grid, SPM_GRID_SPHERES, records, nullptr, nullptr, pos, flux);
+  add_row(grid, SPM_GRID_SPHERES, radii, std::move(pos), {});
 }
 
 void MapGridData::add_capsules(const RecordGrid& grid, const Radii& radii) {
-  const size_t base = add_row(grid, SPM_GRID_CAPSULES, radii);
-  fill_items(grid, SPM_GRID_CAPSULES, volume_records, nullptr, nullptr, &grid_pos[base], nullptr);
+  std::vector<cl_float4> pos, flux;
+  fill_items(grid, SPM_GRID_CAPSULES, {}, nullptr, nullptr, pos, flux);
+  add_row(grid, SPM_GRID_CAPSULES, radii, std::move(pos), {});
 }
 
 void MapGridData::add_disks(const RecordGrid& grid, const SpmSurfaceRecord* records,
                             const std::vector<uint32_t>& used, const Radii& radii) {
-  const size_t base = add_row(grid, SPM_GRID_DISKS, radii);
-  fill_items(grid, SPM_GRID_DISKS, volume_records, records, &used, &grid_pos[base], &surface_flux[base]);
+  std::vector<cl_float4> pos, flux;
+  fill_items(grid, SPM_GRID_DISKS, {}, records, &used, pos, flux);
+  add_row(grid, SPM_GRID_DISKS, radii, std::move(pos), std::move(flux));
 }
 
 MapGridData map_grid_data(MapParts maps, const PassRadii& radii, bool skip_direct, const QueryBounds& reach,
@@ -271,47 +278,43 @@ MapGridData map_grid_data(MapParts maps, const PassRadii& radii, bool skip_direc
       if (maps.surface[i].flags & SPM_RECORD_CAUSTIC) caustic.push_back(i);
     }
   }
-  // Each role's grid on a thread of its own, then each row's items: they
-  // only read the records, and the device waits for all of them.
+  // Each role's grid and its items on a thread of their own: they only
+  // read the records, and the device waits for all of them.
   const std::vector<GridRole>& roles = grid_roles();
-  std::vector<Radii> readers;
-  for (const GridRole& role : roles) readers.push_back(role.radii(radii));
-  std::vector<std::future<RecordGrid>> built;
-  for (size_t i = 0; i < roles.size(); ++i) {
-    built.push_back(std::async(std::launch::async, [&, i]() -> RecordGrid {
-      const GridRole& role = roles[i];
-      const float r = build_radius(readers[i]);
-      if (!(r > 0.0f)) return build_point_grid({}, 1.0f);  // one empty cell: nothing reads it
-      switch (role.records) {
-        case GridRecords::Surface: return surface_grid(maps.surface, surface, r);
-        case GridRecords::SurfaceCaustic: return surface_grid(maps.surface, caustic, r);
-        case GridRecords::Volume: return volume_grid(volume, 0, focused, r);
-        case GridRecords::VolumeCore: return volume_grid(volume, 0, core_end, r);
-        case GridRecords::VolumeOuter: return volume_grid(volume, core_end, volume.size(), r);
-        case GridRecords::VolumeCaustic: return volume_grid(volume, focused, core_end, r);
-        case GridRecords::Beams: return beam_grid(beams, r);
+  struct Row {
+    RecordGrid grid;
+    std::vector<cl_float4> pos, flux;
+  };
+  std::vector<std::future<Row>> rows;
+  for (const GridRole& role : roles) {
+    rows.push_back(std::async(std::launch::async, [&, role]() -> Row {
+      const float r = build_radius(role.radii(radii));
+      Row row;
+      if (!(r > 0.0f)) {
+        row.grid = build_point_grid({}, 1.0f);  // one empty cell: nothing reads it
+        return row;
       }
-      throw std::logic_error("unknown grid role");
+      const std::vector<uint32_t>& used = role.records == GridRecords::Surface ? surface : caustic;
+      switch (role.records) {
+        case GridRecords::Surface:
+        case GridRecords::SurfaceCaustic: row.grid = surface_grid(maps.surface, used, r); break;
+        case GridRecords::Volume: row.grid = volume_grid(volume, 0, focused, r); break;
+        case GridRecords::VolumeCore: row.grid = volume_grid(volume, 0, core_end, r); break;
+        case GridRecords::VolumeOuter: row.grid = volume_grid(volume, core_end, volume.size(), r); break;
+        case GridRecords::VolumeCaustic: row.grid = volume_grid(volume, focused, core_end, r); break;
+        case GridRecords::Beams: row.grid = beam_grid(beams, r); break;
+      }
+      fill_items(row.grid, role.kind, volume, maps.surface, &used, row.pos, row.flux);
+      return row;
     }));
   }
   MapGridData d;
-  std::vector<RecordGrid> grids;
-  std::vector<size_t> bases;
   for (size_t i = 0; i < roles.size(); ++i) {
-    grids.push_back(built[i].get());
-    bases.push_back(d.add_row(grids.back(), roles[i].kind, readers[i]));
+    Row row = rows[i].get();
+    d.add_row(std::move(row.grid), roles[i].kind, roles[i].radii(radii), std::move(row.pos), std::move(row.flux));
   }
-  std::vector<std::future<void>> filled;
-  for (size_t i = 0; i < roles.size(); ++i) {
-    if (grids[i].items.empty()) continue;
-    const std::vector<uint32_t>* used = roles[i].records == GridRecords::Surface ? &surface : &caustic;
-    cl_float4* flux = roles[i].kind == SPM_GRID_DISKS ? &d.surface_flux[bases[i]] : nullptr;
-    filled.push_back(std::async(std::launch::async, fill_items, std::cref(grids[i]), roles[i].kind, std::cref(volume),
-                                maps.surface, used, &d.grid_pos[bases[i]], flux));
-  }
-  for (std::future<void>& f : filled) f.get();
-  d.volume_records = std::move(volume);
-  d.beams = std::move(beams);
+  d.volume_records.append(std::move(volume));
+  d.beams.append(std::move(beams));
   return d;
 }
 

@@ -46,30 +46,32 @@ QueryBounds volume_core(const QueryBounds& reach, size_t records, float radius);
 std::vector<uint32_t> used_surface_records(const SpmSurfaceRecord* records, size_t count, bool skip_direct,
                                            const QueryBounds& reach = {});
 
-// The gather's map buffers on the host, one vector per entry of
-// SPM_MAP_BUFFERS (kernels/spm_maps.h): the grid table, the cells and items
-// all its rows share, and the records they list.
+// The gather's map buffers on the host, one per entry of SPM_MAP_BUFFERS
+// (kernels/spm_maps.h): the grid table, the cells and items its rows
+// share, and the records they list, each in parts that upload one after
+// another (a row's cells and items are a part each).
 struct MapGridData {
-#define SPM_MAP_FIELD(type, name) std::vector<type> name;
+#define SPM_MAP_FIELD(type, name) Pieces<type> name;
   SPM_MAP_BUFFERS(SPM_MAP_FIELD)
 #undef SPM_MAP_FIELD
   size_t bytes() const;  // device memory of the upload
 
   // Appends `grid` as the table's next row, read with `radii` (SPM_READ_*;
-  // 0: not read). Its items list volume_records (spheres) or beams
-  // (capsules) by the grid's item indices, or, for disks, the surface
-  // records records[used[i]] for item i. Disk grids come before the
-  // others, so that surface_flux runs parallel to grid_pos.
+  // 0: not read). Its items list `records` (spheres: volume_records, which
+  // the caller appends them to) or beams (capsules) by the grid's item
+  // indices, or, for disks, the surface records records[used[i]] for item
+  // i. Disk grids come before the others, so that surface_flux runs
+  // parallel to grid_pos.
   using Radii = std::array<float, SPM_READERS>;
-  void add_spheres(const RecordGrid& grid, const Radii& radii);
+  void add_spheres(const RecordGrid& grid, const std::vector<SpmVolumeRecord>& records, const Radii& radii);
   void add_capsules(const RecordGrid& grid, const Radii& radii);
   void add_disks(const RecordGrid& grid, const SpmSurfaceRecord* records, const std::vector<uint32_t>& used,
                  const Radii& radii);
 
-  // The table's next row for `grid`, its cells appended and room made for
-  // its items, which the caller then writes (fill_items) from the index
-  // returned; map_grid_data writes its rows' items in parallel.
-  size_t add_row(const RecordGrid& grid, cl_uint kind, const Radii& radii);
+  // The table's next row: `grid` with its items' positions (and, for
+  // disks, flux), as fill_items writes them, moved in.
+  void add_row(RecordGrid grid, cl_uint kind, const Radii& radii, std::vector<cl_float4> pos,
+               std::vector<cl_float4> flux);
 };
 
 // The records a pass's gather reads.

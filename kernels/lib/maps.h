@@ -21,6 +21,9 @@ typedef struct SpmMapTable {
   const __global SpmBeam* beams;
   uint density_kernel; /* SPM_KERNEL_* */
   uint estimator;      /* SPM_ESTIMATOR_*: the sphere grids' weights (beam_estimate) */
+  /* Per reader, a bit per row it reads, so that an estimate visits those
+   * rows alone; at most 32 rows. */
+  uint reads[SPM_READERS];
 } SpmMapTable;
 
 inline SpmMapTable make_map_table(const __global SpmMapGrid* grids, uint rows, const __global uint* cells,
@@ -37,8 +40,15 @@ inline SpmMapTable make_map_table(const __global SpmMapGrid* grids, uint rows, c
   t.beams = beams;
   t.density_kernel = density_kernel;
   t.estimator = estimator;
+  for (uint r = 0; r < SPM_READERS; ++r) t.reads[r] = 0u;
+  for (uint g = 0; g < rows; ++g) {
+    for (uint r = 0; r < SPM_READERS; ++r) t.reads[r] |= grids[g].radius[r] > 0.0f ? 1u << g : 0u;
+  }
   return t;
 }
+
+/* The lowest row of a reader's bits (OpenCL C 1.2 has clz, not ctz). */
+inline uint lowest_row(uint bits) { return 31u - clz(bits & (~bits + 1u)); }
 
 /* Row g's grid. Filled through a pointer, not returned: a struct returned
  * from a function inlined in a loop leaves LLVM's noalias scope
@@ -46,7 +56,7 @@ inline SpmMapTable make_map_table(const __global SpmMapGrid* grids, uint rows, c
 inline void table_grid(const SpmMapTable* t, uint g, SpmGrid* grid) {
   grid->info = &t->grids[g].info;
   grid->cell_start = t->cells + t->grids[g].first_cell;
-  grid->item_pos = t->pos;
+  grid->item_pos = t->pos + t->grids[g].first_item;
 }
 
 /* In-scattered radiance towards the camera along [t0, t1] of o + t d in
@@ -58,10 +68,11 @@ inline float3 table_volume_estimate(const SpmMapTable* t, uint reader, const __g
                                     float t1, uint min_depth, uint max_depth, const SpmMediumTable* tab,
                                     uint* tests) {
   float3 sum = (float3)(0.0f);
-  for (uint g = 0; g < t->rows; ++g) {
+  for (uint bits = t->reads[reader]; bits != 0u; bits &= bits - 1u) {
+    const uint g = lowest_row(bits);
     const __global SpmMapGrid* row = &t->grids[g];
     const float r = row->radius[reader];
-    if (!(r > 0.0f) || row->kind == SPM_GRID_DISKS) continue;
+    if (row->kind == SPM_GRID_DISKS) continue;
     SpmGrid grid;
     table_grid(t, g, &grid);
     if (row->kind == SPM_GRID_SPHERES) {
@@ -80,13 +91,14 @@ inline float3 table_volume_estimate(const SpmMapTable* t, uint reader, const __g
 inline float3 table_surface_estimate(const SpmMapTable* t, uint reader, float3 x, float3 n, uint max_depth,
                                      const SpmPatchFrame* patch) {
   float3 sum = (float3)(0.0f);
-  for (uint g = 0; g < t->rows; ++g) {
+  for (uint bits = t->reads[reader]; bits != 0u; bits &= bits - 1u) {
+    const uint g = lowest_row(bits);
     const __global SpmMapGrid* row = &t->grids[g];
     const float r = row->radius[reader];
-    if (!(r > 0.0f) || row->kind != SPM_GRID_DISKS) continue;
+    if (row->kind != SPM_GRID_DISKS) continue;
     SpmGrid grid;
     table_grid(t, g, &grid);
-    sum += surface_estimate(&grid, t->surface_flux, x, n, r, t->density_kernel, max_depth, patch);
+    sum += surface_estimate(&grid, t->surface_flux + row->first_item, x, n, r, t->density_kernel, max_depth, patch);
   }
   return sum;
 }
