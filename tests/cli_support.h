@@ -97,12 +97,12 @@ class CliTest : public ::testing::Test {
     return path(name);
   }
 
-  // Runs `prefix spm args` (prefix: environment or a wrapper such as oclgrind).
-  Outcome run(const std::string& args, const std::string& prefix = "") const {
+  // Runs `prefix spm args` (prefix: environment or a wrapper such as
+  // oclgrind), spm being this build's unless `binary` names another.
+  Outcome run(const std::string& args, const std::string& prefix = "", const std::string& binary = SPM_BINARY) const {
     // Not named *out*: the bad-input tests check that no output file is left.
     const std::string err = path("stderr.txt"), out = path("printed.txt");
-    const std::string cmd =
-        prefix + " " + std::string(SPM_BINARY) + " " + args + " >" + out + " 2>" + err + " </dev/null";
+    const std::string cmd = prefix + " " + binary + " " + args + " >" + out + " 2>" + err + " </dev/null";
     const int status = std::system(cmd.c_str());
     const auto read = [](const std::string& file) {
       std::ifstream in(file);
