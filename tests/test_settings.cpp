@@ -123,6 +123,45 @@ TEST_F(Settings, TheSettingsLineGivesEveryValueAndWhereItCameFrom) {
   EXPECT_NE(r.err.find("rr_depth 5,"), std::string::npos) << r.err;  // a default, unmarked
 }
 
+// Mitsuba's path tracers render with spm's method: their max_depth and
+// rr_depth are spm's (the same image as the flags give), the settings line
+// says where they came from, and what spm cannot honour exits 2.
+TEST_F(Settings, MitsubasPathTracersGiveTheirDepths) {
+  for (const char* type : {"volpath", "volpathmis", "path"}) {
+    SCOPED_TRACE(type);
+    const std::string file = write(std::string(type) + ".xml",
+                                   spm::test::plane_scene("<integrator type=\"" + std::string(type) +
+                                                          "\"><integer name=\"max_depth\" value=\"1\"/>"
+                                                          "<integer name=\"rr_depth\" value=\"3\"/></integrator>"));
+    const spm::test::Outcome a = run("render " + file + " -o " + path("a.exr") + " --passes 1 --spp 2");
+    ASSERT_EQ(a.code, 0) << a.err;
+    EXPECT_NE(a.err.find("max_depth 1 (scene, " + std::string(type) + ")"), std::string::npos) << a.err;
+    EXPECT_NE(a.err.find("rr_depth 3 (scene, " + std::string(type) + ")"), std::string::npos) << a.err;
+    EXPECT_NE(a.err.find("radius "), std::string::npos) << a.err;
+    EXPECT_NE(a.err.find("(derived)"), std::string::npos) << a.err;
+  }
+  const std::string plain = write("plain.xml", spm::test::plane_scene());
+  const spm::test::Outcome b =
+      run("render " + plain + " -o " + path("b.exr") + " --passes 1 --spp 2 --max-depth 1 --rr-depth 3");
+  ASSERT_EQ(b.code, 0) << b.err;
+  EXPECT_EQ(spm::test::read_file(path("a.exr")), spm::test::read_file(path("b.exr")));
+  // The depth matters here: max_depth 1 sees no light but the lights' own.
+  ASSERT_EQ(run("render " + plain + " -o " + path("c.exr") + " --passes 1 --spp 2 --rr-depth 3").code, 0);
+  EXPECT_NE(spm::test::read_file(path("b.exr")), spm::test::read_file(path("c.exr")));
+
+  for (const std::string bad : {"<integer name=\"max_depth\" value=\"-2\"/>",
+                                "<boolean name=\"hide_emitters\" value=\"true\"/>",
+                                "<float name=\"radius\" value=\"1\"/>"}) {
+    SCOPED_TRACE(bad);
+    const std::string file =
+        write("bad.xml", spm::test::plane_scene("<integrator type=\"volpath\">\n" + bad + "\n</integrator>"));
+    const spm::test::Outcome r = run("render " + file + " -o " + path("o.exr"));
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_EQ(r.err.rfind("spm: " + file + ":", 0), 0u) << r.err;
+    EXPECT_EQ(spm::test::count_lines(r.err), 1) << r.err;
+  }
+}
+
 // docs/TUNING.md is what `spm settings` prints: the table in words, never
 // edited by hand.
 TEST_F(Settings, TuningMdIsTheTable) {

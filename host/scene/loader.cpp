@@ -749,18 +749,39 @@ class Loader {
 
   // ---- integrator ---------------------------------------------------------
 
-  // Only type="spm" is ours; any other integrator is left entirely to the
-  // renderer it is written for (e.g. Mitsuba's volpath for a reference image).
+  // type="spm" holds every setting. Mitsuba's path tracers (volpath,
+  // volpathmis, path) render with spm's method: their max_depth and
+  // rr_depth mean what spm's do (METHOD.md 10) and every other setting is
+  // derived. Any other integrator is left to the renderer it is written for.
   void parse_integrator(const pugi::xml_node& node) {
     std::string type = object_type(node);
     if (have_integrator_) ctx_.fail(node, "a second <integrator> (only one per scene)");
     have_integrator_ = true;
+    if (type == "volpath" || type == "volpathmis" || type == "path") {
+      parse_path_integrator(node, type);
+      return;
+    }
     if (type != "spm") return;
     Props p(ctx_, node, "integrator 'spm'");
     IntegratorSettings& s = scene_.integrator;
     s.present = true;
     s.where = ctx_.where(node);
     read_settings(p, s);
+    p.finish();
+    no_objects(p);
+    register_id(node, -1);
+  }
+
+  void parse_path_integrator(const pugi::xml_node& node, const std::string& type) {
+    Props p(ctx_, node, "integrator '" + type + "'");
+    IntegratorSettings& s = scene_.integrator;
+    s.integrator_type = type;
+    s.where = ctx_.where(node);
+    read_setting(p, find_setting("max_depth"), s);
+    read_setting(p, find_setting("rr_depth"), s);
+    if (p.get_bool("hide_emitters").value_or(false)) {
+      p.fail("hide_emitters", "hide_emitters=true is not supported: spm draws the lights the camera sees");
+    }
     p.finish();
     no_objects(p);
     register_id(node, -1);

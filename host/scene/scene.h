@@ -106,6 +106,9 @@ enum class SettingSource { Default, Scene, CommandLine, Derived };
 // (or -1) may stand for "derived" or "unlimited" as the table says.
 struct IntegratorSettings {
   bool present = false;  // false when the file has no spm integrator
+  // The integrator element the settings were read from: spm, or one of
+  // Mitsuba's path tracers whose depths spm reads (the settings line says).
+  std::string integrator_type = "spm";
   int streams = 0;
   int associated = 0;
   int beam_streams = 0;

@@ -153,31 +153,41 @@ std::string setting_problem(const Setting& s, const std::string& value) {
   return "unknown " + std::string(s.names->what) + " '" + value + "' (" + s.names->listed() + ")";
 }
 
+void read_setting(xml::Props& p, const Setting& s, IntegratorSettings& in) {
+  bool given = false;
+  std::visit(
+      [&](auto member) {
+        using T = std::decay_t<decltype(in.*member)>;
+        std::optional<T> v;
+        if constexpr (std::is_same_v<T, int>) v = p.get_int(s.name);
+        if constexpr (std::is_same_v<T, float>) v = p.get_float(s.name);
+        if constexpr (std::is_same_v<T, bool>) v = p.get_bool(s.name);
+        if constexpr (std::is_same_v<T, std::string>) v = p.get_string(s.name);
+        if (!v) return;
+        std::string problem;
+        if constexpr (std::is_same_v<T, std::string>) problem = setting_problem(s, *v);
+        if constexpr (std::is_same_v<T, int> || std::is_same_v<T, float>) problem = setting_problem(s, double(*v));
+        if (!problem.empty()) {
+          p.fail(s.name, problem.rfind("unknown", 0) == 0 ? problem : std::string(s.name) + " " + problem);
+        }
+        in.*member = *v;
+        given = true;
+      },
+      s.member);
+  if (given) in.sources[s.name] = SettingSource::Scene;
+}
+
 void read_settings(xml::Props& p, IntegratorSettings& in) {
   for (const Setting& s : settings_table()) {
-    if (!s.xml) continue;
-    bool given = false;
-    std::visit(
-        [&](auto member) {
-          using T = std::decay_t<decltype(in.*member)>;
-          std::optional<T> v;
-          if constexpr (std::is_same_v<T, int>) v = p.get_int(s.name);
-          if constexpr (std::is_same_v<T, float>) v = p.get_float(s.name);
-          if constexpr (std::is_same_v<T, bool>) v = p.get_bool(s.name);
-          if constexpr (std::is_same_v<T, std::string>) v = p.get_string(s.name);
-          if (!v) return;
-          std::string problem;
-          if constexpr (std::is_same_v<T, std::string>) problem = setting_problem(s, *v);
-          if constexpr (std::is_same_v<T, int> || std::is_same_v<T, float>) problem = setting_problem(s, double(*v));
-          if (!problem.empty()) {
-            p.fail(s.name, problem.rfind("unknown", 0) == 0 ? problem : std::string(s.name) + " " + problem);
-          }
-          in.*member = *v;
-          given = true;
-        },
-        s.member);
-    if (given) in.sources[s.name] = SettingSource::Scene;
+    if (s.xml) read_setting(p, s, in);
   }
+}
+
+const Setting& find_setting(const std::string& name) {
+  for (const Setting& s : settings_table()) {
+    if (name == s.name) return s;
+  }
+  throw std::logic_error("no setting named " + name);
 }
 
 void set_from_flag(const Setting& s, const std::string& value, IntegratorSettings& in) {
@@ -259,7 +269,11 @@ std::string settings_line(const IntegratorSettings& used) {
   for (const Setting& s : settings_table()) {
     line += (line.empty() ? "" : ", ") + std::string(s.name) + " " + setting_text(s, used);
     const SettingSource src = used.source(s.name);
-    if (src != SettingSource::Default) line += std::string(" (") + source_name(src) + ")";
+    if (src == SettingSource::Scene && used.integrator_type != "spm") {
+      line += " (scene, " + used.integrator_type + ")";
+    } else if (src != SettingSource::Default) {
+      line += std::string(" (") + source_name(src) + ")";
+    }
   }
   return line;
 }
@@ -271,6 +285,7 @@ nlohmann::json settings_json(const IntegratorSettings& used) {
     sources[s.name] = source_name(used.source(s.name));
   }
   j["sources"] = sources;
+  j["integrator"] = used.integrator_type;
   return j;
 }
 

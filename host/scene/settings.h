@@ -60,6 +60,11 @@ std::string setting_problem(const Setting& s, const std::string& value);
 // Reads every setting the integrator element gives into `in`, checked,
 // marking its source Scene; a bad value fails naming the element's line.
 void read_settings(xml::Props& p, IntegratorSettings& in);
+// The same for one setting of the table.
+void read_setting(xml::Props& p, const Setting& s, IntegratorSettings& in);
+
+// The table's row named `name` (std::logic_error if none: a programming error).
+const Setting& find_setting(const std::string& name);
 
 // Sets `s` of `in` from the command line's text `value` (a boolean's:
 // "true" or "false"), marking its source CommandLine; throws InputError
