@@ -122,20 +122,23 @@ extern "C" void on_sigint(int) { g_interrupted = true; }
 
 // A progress bar on a terminal, plain lines otherwise; a timed render says
 // how long is left.
+// Each line ends with the image's estimated relMSE once two passes are in.
 spm::Progress progress_printer(bool tty, float budget) {
   const auto started = std::chrono::steady_clock::now();
-  return [tty, started, budget](int done, int total) {
+  return [tty, started, budget](int done, int total, const spm::ErrorEstimate& e) {
+    char error[64] = "";
+    if (e.relmse >= 0.0) std::snprintf(error, sizeof error, ", estimated relMSE %.2e", e.relmse);
     if (total == 0) {
-      const double left =
-          std::max(0.0, budget - std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
-      std::cerr << (tty ? "\r" : "") << "spm: " << done << " pass(es) done, " << static_cast<int>(std::ceil(left))
-                << " s left" << (tty ? "   " : "\n") << std::flush;
+      const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      std::cerr << (tty ? "\r" : "") << "spm: " << done << " pass(es) done";
+      if (budget > 0.0f) std::cerr << ", " << static_cast<int>(std::ceil(std::max(0.0, budget - spent))) << " s left";
+      std::cerr << error << (tty ? "   " : "\n") << std::flush;
     } else if (tty) {
       const int width = 40, filled = width * done / total;
       std::cerr << "\r[" << std::string(filled, '#') << std::string(width - filled, ' ') << "] " << done << "/"
-                << total << std::flush;
+                << total << error << std::flush;
     } else {
-      std::cerr << "spm: pass " << done << "/" << total << " done\n";
+      std::cerr << "spm: pass " << done << "/" << total << " done" << error << "\n";
     }
   };
 }
@@ -145,8 +148,8 @@ void write_profile(const RenderArgs& a, const spm::RenderSettings& settings, con
                    const nlohmann::json& rank_profiles) {
   if (a.profile) {
     spm::print_kernel_table(std::cout, profiler.kernels());
-    std::printf("stages: propagate %.3f s, grid build %.3f s, gather %.3f s; passes %.3f s in all\n",
-                stats.propagate_seconds, stats.grid_seconds, stats.gather_seconds, stats.seconds);
+    std::printf("stages: propagate %.3f s, grid build %.3f s, gather %.3f s, error probe %.3f s; passes %.3f s in all\n",
+                stats.propagate_seconds, stats.grid_seconds, stats.gather_seconds, stats.probe_seconds, stats.seconds);
     std::printf("host: BVH %.3f s, kernel builds %.3f s\n", stats.bvh_seconds, stats.build_seconds);
     std::printf("gather: %llu camera samples, %.1f sphere tests per sample\n",
                 static_cast<unsigned long long>(stats.camera_samples),
@@ -232,6 +235,13 @@ int cmd_render(const RenderArgs& a) {
   profiler.stage("image_write", t, profiler.now());
   spm::add_build_values(profiler, stats, devices);
   write_profile(a, settings, stats, devices, profiler, used, rank_profiles);
+  if (stats.error.relmse >= 0.0) {
+    const float target = scene.integrator.target_error;
+    std::fprintf(stderr, "spm: estimated relMSE %.3g (variance %.3g, bias %.3g) after %d passes, %.2f s%s\n",
+                 stats.error.relmse, stats.error.variance, stats.error.bias, stats.passes, stats.seconds,
+                 target > 0.0f ? (stats.error.relmse < target ? "; the target is met" : "; the target is not met")
+                               : "");
+  }
   for (size_t d = 0; d < stats.devices.size(); ++d) {
     const std::string who = cluster.size() > 1 ? stats.devices[d].name  // named "rank R device D (name)"
                                                : "device " + std::to_string(d) + " (" + stats.devices[d].name + ")";

@@ -14,7 +14,7 @@
 #include "lib/maps.h"
 
 #define SPM_TEST_TABLE \
-  make_map_table(grids, rows, grid_cells, grid_pos, surface_flux, volume_records, beams, density_kernel, estimator)
+  make_map_table(grids, rows, grid_cells, grid_pos, surface_flux, volume_records, beams, density_kernel, estimator, 1.0f)
 
 __kernel void spm_volume_test(uint rows SPM_MAP_PARAMS, const __global SpmMedium* media,
                               const __global SpmPatch* patches, const __global float4* origins,

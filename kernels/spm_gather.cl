@@ -622,7 +622,7 @@ __kernel void spm_gather(SPM_SCENE_PARAMS, SpmGatherParams params, const __globa
   const SpmScene s = SPM_SCENE;
   SpmMaps maps;
   maps.table = make_map_table(grids, params.grids, grid_cells, grid_pos, surface_flux, volume_records, beams,
-                              params.density_kernel, params.estimator);
+                              params.density_kernel, params.estimator, params.radius_scale);
   maps.final_gather = params.final_gather;
   maps.march_step = params.march_step;
   maps.radius = params.radius;

@@ -361,7 +361,12 @@ typedef struct SpmGatherParams {
   spm_uint grids;       /* rows of the grid table (SpmMapGrid) */
   spm_uint first_pixel; /* the launch's tile: `count` pixels from first_pixel */
   spm_uint count;
-  spm_uint pad[3];
+  /* Every grid's radius is read times this: 1 for the pass's image; below
+   * 1 for the probe that measures the estimates' bias (METHOD.md 15,
+   * host/render/error_model.h). The grids built for the pass's radii hold
+   * every record a smaller radius reaches. */
+  spm_float radius_scale;
+  spm_uint pad[2];
 } SpmGatherParams;
 
 /* Uniform grid over spheres of radius r around map records (METHOD.md 5),

@@ -1070,20 +1070,41 @@ TEST(SceneParser, SpmIntegratorSettings) {
   EXPECT_EQ(i.where, "test.xml:2");
 }
 
+// An integrator that is neither spm's nor one of Mitsuba's path tracers is
+// left to the renderer it is written for.
 TEST(SceneParser, OtherIntegratorIsIgnoredUnchecked) {
-  Scene s = load(R"(<integrator type="volpath">
-  <integer name="max_depth" value="-1"/>
+  Scene s = load(R"(<integrator type="ptracer">
+  <integer name="max_depth" value="3"/>
   <whatever name="x"/>
 </integrator>)");
   EXPECT_FALSE(s.integrator.present);
   EXPECT_EQ(s.integrator.max_depth, -1);
+  EXPECT_EQ(s.integrator.integrator_type, "spm");
+}
+
+// Mitsuba's path tracers are read: their depths, checked like spm's own.
+TEST(SceneParser, PathTracerIntegratorsGiveTheirDepths) {
+  Scene s = load(R"(<integrator type="volpath"><integer name="max_depth" value="7"/></integrator>)");
+  EXPECT_FALSE(s.integrator.present);
+  EXPECT_EQ(s.integrator.max_depth, 7);
+  EXPECT_EQ(s.integrator.integrator_type, "volpath");
+  EXPECT_EQ(s.integrator.source("max_depth"), SettingSource::Scene);
+  expect_error(R"(<integrator type="path">
+<integer name="rr_depth" value="0"/> <!--here-->
+</integrator>)",
+               "rr_depth must be at least 1");
+  expect_error(R"(<integrator type="volpathmis">
+<whatever name="x"/> <!--here-->
+</integrator>)",
+               "unknown or unsupported tag <whatever> in integrator 'volpathmis'");
 }
 
 TEST(SceneParser, IntegratorTypeFromParameter) {
   std::string body = R"(<default name="integrator" value="spm"/>
-<integrator type="$integrator"><integer name="streams" value="5"/></integrator>)";
+<integrator type="$integrator"><integer name="max_depth" value="5"/></integrator>)";
   EXPECT_TRUE(load(body).integrator.present);
   EXPECT_FALSE(load(body, {{"integrator", "volpath"}}).integrator.present);
+  EXPECT_EQ(load(body, {{"integrator", "volpath"}}).integrator.max_depth, 5);
 }
 
 TEST(SceneParser, RefusesBadSpmIntegrator) {

@@ -310,4 +310,71 @@ TEST(Validation, FogBoxWrittenEitherWayMatchesMitsuba) {
   EXPECT_LT(e16, rel_mse(images[0], ref.image)) << "16 passes: relMSE " << e16;
 }
 
+// The render's own error estimate (docs/METHOD.md 15) against the error
+// the reference measures: within [0.5, 2] after 4 and after 16 passes.
+// Measured (docs/experiments/error-estimate.md): fog_box 0.97-0.99 at 4
+// passes and 0.94 at 16; cornell_fog (max_bounces lifted as above)
+// 0.94-1.01 at 4 and 0.91 at 16; caustic_area 0.86 at 4. Samples per pass
+// are cut to 4 here to keep the test short: the estimate must hold for any.
+// A cornell_fog whose estimate left out the bias reads 0.68 where the
+// radius is 7 (derived, docs/experiments/error-estimate.md); one that took
+// the spread between passes for the variance, 2.4 on the fog box.
+TEST(Validation, TheErrorEstimateMatchesTheReferencesError) {
+  struct Calibration {
+    const char* scene;
+    std::vector<uint32_t> seeds;
+  };
+  for (const Calibration& c : {Calibration{"fog_box", {1, 2}}, Calibration{"cornell_fog", {1}},
+                               Calibration{"caustic_area", {1}}}) {
+    const Reference ref = load_reference(c.scene);
+    auto scene = spm::load_scene(std::string(SPM_SCENES_DIR "/") + c.scene + ".xml", ref.defines);
+    scene.integrator.max_bounces = 32;
+    for (const uint32_t seed : c.seeds) {
+      for (const int passes : {4, 16}) {
+        spm::RenderSettings s;
+        s.passes = passes;
+        s.spp = 4;
+        s.seed = seed;
+        spm::RenderStats stats;
+        const spm::Image image = spm::render(scene, s, spm::test::device(), &stats);
+        const double actual = rel_mse(image, ref.image), ratio = stats.error.relmse / actual;
+        EXPECT_GE(ratio, 0.5) << c.scene << " seed " << seed << ", " << passes << " passes: estimated "
+                              << stats.error.relmse << ", actual " << actual;
+        EXPECT_LE(ratio, 2.0) << c.scene << " seed " << seed << ", " << passes << " passes: estimated "
+                              << stats.error.relmse << ", actual " << actual;
+        std::printf("%s seed %u, %d passes: estimated relMSE %.3g (variance %.3g, bias %.3g), actual %.3g, "
+                    "ratio %.2f\n",
+                    c.scene, seed, passes, stats.error.relmse, stats.error.variance, stats.error.bias, actual, ratio);
+      }
+    }
+  }
+}
+
+// --target-error E stops once the estimate is below E, and the image's
+// actual error is then below 2E.
+TEST(Validation, ATargetErrorStopsWhereItIsMet) {
+  const Reference ref = load_reference("fog_box");
+  auto scene = spm::load_scene(SPM_SCENES_DIR "/fog_box.xml", ref.defines);
+  const float target = 1.5e-3f;
+  scene.integrator.target_error = target;
+  spm::RenderSettings s;
+  s.spp = 4;
+  s.seed = 3;
+  spm::RenderStats stats;
+  std::vector<double> estimates;
+  const spm::Image image = spm::render(scene, s, std::vector<spm::Device*>{&spm::test::device()}, &stats,
+                                       [&](int, int total, const spm::ErrorEstimate& e) {
+                                         EXPECT_EQ(total, 0);
+                                         estimates.push_back(e.relmse);
+                                       });
+  ASSERT_GE(estimates.size(), 3u);
+  EXPECT_EQ(int(estimates.size()), stats.passes);
+  EXPECT_LT(stats.error.relmse, target);
+  EXPECT_GE(estimates[estimates.size() - 2], target) << "it went on after the target was met";
+  const double actual = rel_mse(image, ref.image);
+  EXPECT_LT(actual, 2.0 * target) << stats.passes << " passes";
+  std::printf("target %.3g: %d passes, estimated %.3g, actual %.3g\n", target, stats.passes, stats.error.relmse,
+              actual);
+}
+
 }  // namespace

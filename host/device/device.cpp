@@ -295,10 +295,10 @@ size_t Device::work_group_size(const cl::Kernel& kernel) const {
   return std::max<size_t>(size, 1);
 }
 
-size_t Device::launch(cl::Kernel& kernel, size_t items) {
+size_t Device::launch(cl::Kernel& kernel, size_t items, const char* name) {
   const size_t local = work_group_size(kernel);
   const size_t global = std::max<size_t>(local, (items + local - 1) / local * local);
-  std::string label = kernel.getInfo<CL_KERNEL_FUNCTION_NAME>();
+  std::string label = name ? name : kernel.getInfo<CL_KERNEL_FUNCTION_NAME>();
   if (label.rfind("spm_", 0) == 0) label.erase(0, 4);
   cl::Event event;
   const auto enqueued = std::chrono::steady_clock::now();

@@ -112,9 +112,9 @@ class Device {
   // Enqueues `kernel` over `items` work-items: the global size is padded to a
   // multiple of the work-group size (OpenCL 1.2 has no non-uniform groups), so
   // every kernel takes its item count and returns early past it. The launch
-  // is labelled with the kernel's CL_KERNEL_FUNCTION_NAME less its "spm_";
-  // returns its index among the launches since take_launches.
-  size_t launch(cl::Kernel& kernel, size_t items);
+  // is labelled `label`, or with the kernel's CL_KERNEL_FUNCTION_NAME less
+  // its "spm_"; returns its index among the launches since take_launches.
+  size_t launch(cl::Kernel& kernel, size_t items, const char* label = nullptr);
 
   // Sets how many of launch `index`'s work-items had work, when the host
   // learns it after the launch (a queue whose size was on the device).

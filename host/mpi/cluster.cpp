@@ -135,10 +135,10 @@ class LocalRender {
       try {
         stats_ = render_passes(
             scene, s, devices, slice,
-            [this](int pass, std::vector<float>&& rgb) {
+            [this](int pass, PassImage&& image) {
               {
                 std::lock_guard<std::mutex> lock(mutex_);
-                queue_.emplace_back(pass, std::move(rgb));
+                queue_.emplace_back(pass, std::move(image.rgb));
               }
               ready_.notify_one();
             },
@@ -256,11 +256,18 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
   Cluster& c = Cluster::get();
   if (c.size() == 1) return render(scene, settings, devices, stats, progress, profiler);
 
-  const RenderSettings s = resolve_settings(scene, settings);
+  // The error estimate reads every pass's probe, which the ranks do not
+  // send: with several ranks the render has none (a gap: METHOD.md 15).
+  if (scene.integrator.target_error > 0.0f) {
+    throw InputError("--target-error", "a target error needs one process; use several devices instead of ranks");
+  }
+  RenderSettings unprobed = settings;
+  unprobed.error_probe = false;
+  const RenderSettings s = resolve_settings(scene, unprobed);
   const bool timed = s.passes == 0;  // a time budget (resolve_settings)
   const size_t values = size_t(s.width) * s.height * 3;
   const int ranks = c.size();
-  LocalRender local(scene, settings, devices, PassSlice{c.rank(), ranks}, profiler);
+  LocalRender local(scene, unprobed, devices, PassSlice{c.rank(), ranks}, profiler);
 
   if (!c.root()) {
     // Each pass image to rank 0 as soon as it is done; then stats and profile.
@@ -285,14 +292,14 @@ Image render_cluster(const Scene& scene, const RenderSettings& settings, const s
   }
 
   // Rank 0: its own passes and every other rank's into one OrderedSum.
-  OrderedSum sum(values);
+  OrderedSum sum(values, false);
   std::vector<RenderStats> remote(static_cast<size_t>(ranks));
   std::vector<json> profiles(static_cast<size_t>(ranks));
   int remote_done = 0;
   const auto add = [&](int pass, std::vector<float>&& rgb) {
     const int before = sum.summed();
-    sum.add(pass, std::move(rgb));
-    if (progress && sum.summed() > before) progress(sum.summed(), timed ? 0 : s.passes);
+    sum.add(pass, PassImage{std::move(rgb), {}, 0.0f});
+    if (progress && sum.summed() > before) progress(sum.summed(), timed ? 0 : s.passes, sum.estimate());
   };
   std::vector<float> message;
   for (bool local_done = false; !local_done || remote_done < ranks - 1;) {

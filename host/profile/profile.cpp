@@ -71,6 +71,17 @@ void Profiler::add_pass(int device, int pass, const PassCounters& c) {
                      {"host_parts", c.host_parts}});
 }
 
+void Profiler::add_estimate(const ErrorEstimate& e, double seconds) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  nlohmann::json j = {{"passes", e.passes}, {"seconds", seconds}};
+  if (e.relmse >= 0.0) {
+    j["relmse"] = e.relmse;
+    j["variance"] = e.variance;
+    j["bias"] = e.bias;
+  }
+  estimates_.push_back(j);
+}
+
 std::map<std::string, KernelTimes> Profiler::kernels() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return kernels_;
@@ -124,6 +135,7 @@ nlohmann::json Profiler::json() const {
         {"sphere_tests", sphere_tests_},
         {"sphere_tests_per_sample", camera_samples_ ? double(sphere_tests_) / camera_samples_ : 0.0}}}};
   j["passes_detail"] = passes_;
+  j["error_estimate"] = estimates_;
   return j;
 }
 

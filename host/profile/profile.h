@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "device/device.h"
+#include "render/error_model.h"
 #include "spm_streams.h"
 
 namespace spm {
@@ -55,6 +56,8 @@ class Profiler {
   void add_pass(int device, int pass, const PassCounters& counters);
   void add_device(int device, const std::string& name);
   void add_value(const std::string& key, double value);  // host figures: build times, ...
+  // The render's estimated error after each pass summed, at `seconds` on this clock.
+  void add_estimate(const ErrorEstimate& e, double seconds);
 
   std::map<std::string, KernelTimes> kernels() const;
   nlohmann::json json() const;
@@ -75,6 +78,7 @@ class Profiler {
   std::map<int, double> device_offset_us_;  // device clock to profiler clock
   std::vector<Event> events_;
   nlohmann::json passes_ = nlohmann::json::array();
+  nlohmann::json estimates_ = nlohmann::json::array();  // add_estimate
   std::array<uint64_t, SPM_COUNTERS> stream_counters_{};
   uint64_t iterations_ = 0, volume_records_ = 0, surface_records_ = 0, camera_samples_ = 0, sphere_tests_ = 0;
   std::map<std::string, double> values_;

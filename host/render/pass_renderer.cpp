@@ -6,6 +6,7 @@
 #include <cstdlib>
 
 #include "render/defaults.h"
+#include "render/error_model.h"
 #include "scene/integrator_options.h"
 #include "spm/map_grids.h"
 #include "spm/maps_io.h"
@@ -84,6 +85,7 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       scene_(&scene),
       tables_(tables),
       settings_(settings),
+      probe_(settings.error_probe && settings.passes != 1),
       gpu_(device, tables),
       propagator_(device, gpu_, batch_settings(device, gpu_, scene, settings)),
       gather_(device, gpu_, size_t(settings.width), size_t(settings.width) * settings.height,
@@ -165,7 +167,8 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
   const cl_uint max_depth = in.max_depth < 0 ? SPM_NONE : cl_uint(in.max_depth);
   const bool beams = estimator_ == SPM_ESTIMATOR_BEAMS;
   const size_t records = (beams ? maps.beams.size() : maps.volume.size()) + maps.surface.size();
-  std::vector<float> rgb(pixels * 3, 0.0f);
+  std::vector<float> rgb(pixels * 3, 0.0f), probe_full, probe_scaled;
+  if (probe_) probe_full = probe_scaled = rgb;
   uint64_t tests = 0;
   size_t parts = 1;
   for (size_t k = 0; k < parts;) {
@@ -208,6 +211,7 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
       parts *= 2;  // start again with smaller parts
       k = 0;
       rgb.assign(pixels * 3, 0.0f);
+      if (probe_) probe_full = probe_scaled = rgb;
       tests = 0;
       continue;
     }
@@ -232,19 +236,68 @@ void PassRenderer::gather(const PhotonMaps& maps, int pass, float radius, float 
     params.final_gather = final_gather_ ? 1u : 0u;
     params.march_step = scene_->integrator.march_step;
     params.direct_terms = direct_terms && k == 0;
-    params.first_sample = first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass) * s.spp);
-    params.strata_seed = strata_seed_;
+    // The passes alternate between kReplicates sequences (error_model.h);
+    // without set_first_sample, pass p reads its replicate's samples
+    // (p / kReplicates) x spp onwards.
+    params.first_sample =
+        first_sample_ >= 0 ? cl_uint(first_sample_) : cl_uint(uint64_t(pass / kReplicates) * s.spp);
+    params.strata_seed = strata_seed_ * kReplicates + cl_uint(pass % kReplicates);
     params.terms = s.terms;
     params.emission_chains = specular_ ? cl_uint(in.emission_chains) : 0u;
     params.volume_samples = cl_uint((s.spp + in.volume_every - 1) / in.volume_every);
+    params.radius_scale = 1.0f;
     tests += gather_.run(grids, params, rgb);
     out.gather_seconds += stages.lap();
     stages.stage("gather", t);
+    if (probe_) run_probe(grids, params, probe_full, probe_scaled, out, stages);
     ++k;
   }
   for (size_t i = 0; i < rgb.size(); ++i) out.rgb[i] += rgb[i];
+  if (probe_) {
+    // Summed over the pass's host parts as out.rgb is; NaN off the probe's rows.
+    out.probe.resize(rgb.size(), 0.0f);
+    const size_t row = size_t(SPM_GATHER_BLOCK) * s.width * 3;
+    for (size_t i = 0; i < rgb.size(); ++i) {
+      out.probe[i] = (i / row) % probe_rows_ == 0 ? out.probe[i] + probe_full[i] - probe_scaled[i] : NAN;
+    }
+  }
   out.counters.sphere_tests += tests;
   out.counters.map_parts += parts;
+}
+
+void PassRenderer::run_probe(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& full,
+                             std::vector<float>& scaled, PassOutput& out, const Stages& stages) {
+  // The photon terms of the pass's first camera sample per pixel, at the
+  // pass's radii and at kProbeScale of them, on every probe_rows_-th row
+  // of blocks (error_model.h).
+  const double t = stages.now();
+  const RenderSettings& s = settings_;
+  SpmGatherParams p = params;
+  p.spp = 1u;
+  p.volume_samples = 1u;
+  p.terms = s.terms & SPM_TERMS_PHOTONS;
+  p.direct_terms = 0u;
+  p.emission_chains = 0u;
+  const size_t row = size_t(SPM_GATHER_BLOCK) * s.width, pixels = size_t(s.width) * s.height;
+  for (const float scale : {1.0f, kProbeScale}) {
+    p.radius_scale = scale;
+    p.radius = params.radius * scale;
+    p.volume_radius = params.volume_radius * scale;
+    for (size_t first = 0; first < pixels; first += row * probe_rows_) {
+      gather_.run(grids, p, scale == 1.0f ? full : scaled, first, std::min(row, pixels - first), "probe");
+    }
+  }
+  out.probe_seconds += stages.lap();
+  stages.stage("probe", t);
+}
+
+void PassRenderer::balance_probe(const PassOutput& out) {
+  if (!probe_ || !(out.probe_seconds > 0.0) || !(out.gather_seconds > 0.0)) return;
+  // Rows in powers of two, so that the rows probed from now on are among
+  // those probed before or contain them.
+  const double want = probe_rows_ * out.probe_seconds / (kProbeShare * out.gather_seconds);
+  while (probe_rows_ < kMaxProbeRows && probe_rows_ < want / 1.5) probe_rows_ *= 2;
+  while (probe_rows_ > 1 && probe_rows_ > 1.5 * want) probe_rows_ /= 2;
 }
 
 PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
@@ -263,6 +316,7 @@ PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {
   const float width = in.stream_width * radius / in.radius;
   const float beam_radius = pass_beam_radius(in.radius, in.alpha, pass);
   const float volume_radius = volume_radius0_ * radius / in.radius;
+  out.radius = radius;
   // The pass's streams batch by batch; their maps wait on the host until
   // they pass the host budget or the streams run out, and are then gathered
   // and dropped (the estimates are sums over records, so the parts add up

@@ -10,6 +10,7 @@
 #include "device/device.h"
 #include "profile/profile.h"
 #include "render/defaults.h"
+#include "render/error_model.h"
 #include "render/render.h"
 #include "scene/gpu_scene.h"
 #include "spm/gather.h"
@@ -21,8 +22,12 @@ namespace spm {
 
 struct PassOutput {
   std::vector<float> rgb;  // pixels x 3, mean of the pass's samples
+  // The error probe's difference, pixels x 3 (render/error_model.h); empty
+  // when the pass has none.
+  std::vector<float> probe;
+  float radius = 0.0f;  // the pass's radius
   PassCounters counters;
-  double propagate_seconds = 0.0, grid_seconds = 0.0, gather_seconds = 0.0;
+  double propagate_seconds = 0.0, grid_seconds = 0.0, gather_seconds = 0.0, probe_seconds = 0.0;
 };
 
 class PassRenderer {
@@ -46,10 +51,15 @@ class PassRenderer {
   // Camera samples per pixel of the passes rendered from now on.
   void set_spp(int spp) { settings_.spp = spp; }
 
+  // Sets the error probe's rows for the passes from now on from the time
+  // the probe and the gather of `out` took (kProbeShare).
+  void balance_probe(const PassOutput& out);
+
   // The next passes' camera samples are the pixels' samples first,
   // first + 1, ... of the scrambled sequence `strata` (kernels/lib/rng.h,
-  // stratify2). Without it pass p's are p x spp onwards of sequence 0, which
-  // tiles the sequence when every pass has the same samples.
+  // stratify2). Without it pass p's are (p / kReplicates) x spp onwards of
+  // its replicate's sequence, p mod kReplicates (render/error_model.h), which
+  // tiles each sequence when every pass has the same samples.
   void set_first_sample(uint32_t first, uint32_t strata) {
     first_sample_ = first;
     strata_seed_ = strata;
@@ -72,10 +82,18 @@ class PassRenderer {
   void gather(const PhotonMaps& maps, int pass, float radius, float volume_radius, float beam_radius, bool direct_terms,
               PassOutput& out, const Stages& stages);
 
+  // The error probe of gather part `params`, added to `full` and `scaled` (pixels x 3).
+  void run_probe(const MapGrids& grids, const SpmGatherParams& params, std::vector<float>& full,
+                 std::vector<float>& scaled, PassOutput& out, const Stages& stages);
+
   Device& device_;
   const Scene* scene_;
   const SceneTables& tables_;
   RenderSettings settings_;
+  // Whether each pass runs the error probe (render/error_model.h): a render
+  // of more than one pass that estimates its error.
+  bool probe_;
+  int probe_rows_ = kProbeRows;  // the probe gathers every probe_rows_-th row of blocks
   GpuScene gpu_;
   StreamPropagator propagator_;
   Gather gather_;

@@ -36,11 +36,12 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
     s.spp = samples_per_pass(scene, s.width, s.height);
     s.spp_derived = true;
   }
-  // A render for a time budget (integrator `time`, no pass count) keeps
-  // passes = 0: it renders passes until the budget is spent. Without a pass
+  // A render for a time budget (integrator `time`, no pass count) or a
+  // target error keeps passes = 0: it renders passes until the budget is
+  // spent or the estimated error is below the target, whichever comes first. Without a pass
   // count or a budget, the sampler's sample_count is the render's total
   // samples per pixel (SCENES.md), spread over passes of at most spp each.
-  if (s.passes == 0 && !(in.time > 0.0f)) {
+  if (s.passes == 0 && !(in.time > 0.0f) && !(in.target_error > 0.0f)) {
     if (in.passes > 0) {
       s.passes = in.passes;
     } else {
@@ -92,12 +93,16 @@ Image render(const Scene& scene, const RenderSettings& settings, Device& device,
   return render(scene, settings, std::vector<Device*>{&device}, stats, progress, nullptr);
 }
 
-OrderedSum::OrderedSum(size_t values) : sum_(values, 0.0) {}
+OrderedSum::OrderedSum(size_t values, bool estimate) : sum_(values, 0.0) {
+  if (estimate) model_.emplace(values);
+}
 
-void OrderedSum::add(int pass, std::vector<float> rgb) {
-  waiting_.emplace(pass, std::move(rgb));
+void OrderedSum::add(int pass, PassImage image) {
+  waiting_.emplace(pass, std::move(image));
   for (auto it = waiting_.find(summed_); it != waiting_.end(); it = waiting_.find(summed_)) {
-    for (size_t i = 0; i < sum_.size(); ++i) sum_[i] += it->second[i];
+    const PassImage& p = it->second;
+    for (size_t i = 0; i < sum_.size(); ++i) sum_[i] += p.rgb[i];
+    if (model_) model_->add(it->first, p.rgb, p.radius, p.probe);
     waiting_.erase(it);
     ++summed_;
   }
@@ -149,6 +154,8 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
                           PassSlice slice, const PassSink& sink, Profiler* profiler) {
   RenderSettings s = resolve_settings(scene_in, settings);
   const bool timed = s.passes == 0;
+  // A render to a target error alone has no time budget.
+  const double budget = scene_in.integrator.time > 0.0f ? double(scene_in.integrator.time) : INFINITY;
   for (Device* d : devices) d->set_memory_budget(s.memory_budget);
   const SceneTables tables = flatten_scene(scene_in, s.width, s.height);
   // Device 0's renderer first: the scale pilot is a pass of its own streams
@@ -168,7 +175,6 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   Scene scene = sized_for_budget(derive_scale(scene_in, pilot), s, pilot.seconds);
   fill_derived(scene, s);
   if (s.announce) s.announce(scene, pilot.seconds);
-  const IntegratorSettings& in = scene.integrator;
   renderers[0]->set_scene(scene);
 
   std::mutex mutex;
@@ -177,13 +183,16 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   // tile the pixels' scrambled sequence (stratify2): each pass claims the
   // next run of sample indices instead, one sequence per process, whose
   // ranks read sequences of their own.
-  std::atomic<uint32_t> samples_claimed{0};
+  // One run per replicate (render/error_model.h).
+  std::atomic<uint32_t> samples_claimed[kReplicates] = {};
   std::atomic<bool> failed{false};
   std::exception_ptr error;
   RenderStats st;
   st.devices.resize(devices.size());
   st.pilot_seconds = pilot.seconds;
-  const auto stopping = [&] { return failed.load() || (s.stop && s.stop->load()); };
+  const auto stopping = [&] {
+    return failed.load() || (s.stop && s.stop->load()) || (s.target_met && s.target_met->load());
+  };
 
   const auto work = [&](size_t d) {
     try {
@@ -199,7 +208,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
       // far (at first the pilot's estimate; with balanced samples, from its
       // parts, below), still fits the budget; device 0 renders one pass in
       // any case.
-      double elapsed = 0.0, longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * in.time);
+      double elapsed = 0.0, longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * budget);
       // A timed render with derived samples per pass balances them from the
       // stage times of its passes so far (balanced_spp); their count then
       // depends on timing, as the number of passes already does.
@@ -214,12 +223,15 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
       double longest_rest = 0.0, longest_per_sample = 0.0;
       for (int done = 0;; ++done) {
         if (stopping()) break;
-        if (timed && (d > 0 || done > 0) && elapsed + longest > in.time) break;
+        if (timed && (d > 0 || done > 0) && elapsed + longest > budget) break;
         // This process's k-th pass is slice.offset + k slice.stride.
         const int k = next++;
         const int pass = slice.offset + k * slice.stride;
         if (!timed && pass >= s.passes) break;
-        if (balance) renderer.set_first_sample(samples_claimed.fetch_add(uint32_t(spp)), 1u + uint32_t(slice.offset));
+        if (balance) {
+          renderer.set_first_sample(samples_claimed[pass % kReplicates].fetch_add(uint32_t(spp)),
+                                    1u + uint32_t(slice.offset));
+        }
         Timer busy;
         PassOutput out = renderer.render(pass, profiler, int(d) + 1);
         if (profiler) {
@@ -231,6 +243,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         const double took = busy.lap();
         elapsed += clock.lap();
         longest = std::max(longest, took);
+        renderer.balance_probe(out);
         if (balance) {
           // From the means over this device's passes so far, steadier than
           // one pass. The first pass also pays for its kernels' first
@@ -243,7 +256,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
           gather_seconds += out.gather_seconds;
           samples += spp;
           const int next_spp =
-              balanced_spp(photon_seconds / std::max(1, done), gather_seconds * spp / samples, spp, in.time);
+              balanced_spp(photon_seconds / std::max(1, done), gather_seconds * spp / samples, spp, budget);
           longest_rest = std::max(longest_rest, took - out.gather_seconds);
           longest_per_sample = std::max(longest_per_sample, out.gather_seconds / spp);
           longest = longest_rest + longest_per_sample * next_spp;
@@ -257,10 +270,11 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         st.propagate_seconds += out.propagate_seconds;
         st.grid_seconds += out.grid_seconds;
         st.gather_seconds += out.gather_seconds;
+        st.probe_seconds += out.probe_seconds;
         st.camera_samples += out.counters.camera_samples;
         st.sphere_tests += out.counters.sphere_tests;
         ++st.passes;
-        sink(pass, std::move(out.rgb));
+        sink(pass, PassImage{std::move(out.rgb), std::move(out.probe), out.radius});
       }
     } catch (...) {
       std::lock_guard<std::mutex> lock(mutex);
@@ -294,17 +308,28 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
              RenderStats* stats, const Progress& progress, Profiler* profiler) {
   const RenderSettings s = resolve_settings(scene, settings);
   const bool timed = s.passes == 0;
-  OrderedSum sum(size_t(s.width) * s.height * 3);
+  OrderedSum sum(size_t(s.width) * s.height * 3, s.error_probe);
+  // A target error stops the render once the passes summed so far reach it.
+  std::atomic<bool> target_met{false};
+  RenderSettings run = settings;
+  run.target_met = &target_met;
   const RenderStats st = render_passes(
-      scene, settings, devices, PassSlice{}, [&](int pass, std::vector<float>&& rgb) {
-        sum.add(pass, std::move(rgb));
-        if (progress) progress(sum.summed(), timed ? 0 : s.passes);
+      scene, run, devices, PassSlice{}, [&](int pass, PassImage&& image) {
+        const int before = sum.summed();
+        sum.add(pass, std::move(image));
+        if (sum.summed() == before) return;
+        const ErrorEstimate e = sum.estimate();
+        if (profiler) profiler->add_estimate(e, profiler->now());
+        const float target = scene.integrator.target_error;
+        if (target > 0.0f && e.relmse >= 0.0 && e.relmse < target) target_met = true;
+        if (progress) progress(sum.summed(), timed ? 0 : s.passes, e);
       },
       profiler);
   if (stats) {
     *stats = st;
     // With a time budget, only the passes before the first unfinished one count.
     stats->passes = sum.summed();
+    stats->error = sum.estimate();
   }
   return sum.average(s.width, s.height);
 }

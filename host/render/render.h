@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "film/image_io.h"
 #include "scene/scene.h"
 #include "profile/profile.h"
+#include "render/error_model.h"
 #include "spm/propagate.h"
 
 namespace spm {
@@ -34,6 +36,11 @@ struct RenderSettings {
   size_t memory_budget = 0;  // device bytes all of a render's buffers may hold at once; 0: the device's memory
   // When set, no new pass starts; the passes in flight finish (SIGINT).
   const std::atomic<bool>* stop = nullptr;
+  // Whether passes run the error probe (render/error_model.h) when the
+  // render has more than one; off where nothing reads the estimate.
+  bool error_probe = true;
+  // Set by render() once the integrator's target_error is met: no new pass starts.
+  const std::atomic<bool>* target_met = nullptr;
   // Called once before the first pass with the scene as it renders, every
   // setting derived (defaults.h, fill_derived), and the scale pilot's seconds.
   std::function<void(const Scene&, double)> announce;
@@ -56,14 +63,17 @@ struct RenderStats {
   double propagate_seconds = 0.0;  // stream propagation incl. map downloads and sorting
   double grid_seconds = 0.0;       // record grid builds and uploads
   double gather_seconds = 0.0;     // gather kernel and film download
+  double probe_seconds = 0.0;      // the error probe's gathers (render/error_model.h)
   uint64_t camera_samples = 0;
   uint64_t sphere_tests = 0;       // volume records examined by the beam estimates
   std::vector<DeviceStats> devices;
+  ErrorEstimate error;  // of the image render() returns (relmse -1: unknown)
 };
 
-// Called after each finished pass with (passes done, passes in total), the
-// total 0 when the render runs for a time budget.
-using Progress = std::function<void(int, int)>;
+// Called after each finished pass with (passes done, passes in total, the
+// estimated error of the image so far), the total 0 when the render runs for
+// a time budget or a target error; the estimate's relmse is -1 where unknown.
+using Progress = std::function<void(int, int, const ErrorEstimate&)>;
 
 // Validates settings and the scene's integrator (command-line overrides
 // already applied to it) and fills the zeros from the scene; throws
@@ -96,19 +106,30 @@ int balanced_spp(double photon_seconds, double gather_seconds, int spp, double b
 // per pass, in proportion. Any other render: the scene unchanged.
 Scene sized_for_budget(const Scene& scene, RenderSettings& settings, double pilot_seconds);
 
+// A finished pass: its image (pixels x 3), and what the error model reads
+// of it (PassOutput).
+struct PassImage {
+  std::vector<float> rgb;
+  std::vector<float> probe;
+  float radius = 0.0f;
+};
+
 // Sums pass images in pass order, whatever order they arrive in, in double
 // precision: the image then does not depend on which device or process
-// rendered which pass (METHOD.md 6). Not thread-safe.
+// rendered which pass (METHOD.md 6). With `estimate`, the passes summed also
+// feed an ErrorModel in the same order. Not thread-safe.
 class OrderedSum {
  public:
-  explicit OrderedSum(size_t values);
-  void add(int pass, std::vector<float> rgb);
+  OrderedSum(size_t values, bool estimate);
+  void add(int pass, PassImage image);
   int summed() const { return summed_; }  // passes 0 .. summed - 1 are in
   Image average(int width, int height) const;
+  ErrorEstimate estimate() const { return model_ ? model_->estimate() : ErrorEstimate{}; }
 
  private:
   std::vector<double> sum_;
-  std::map<int, std::vector<float>> waiting_;
+  std::map<int, PassImage> waiting_;
+  std::optional<ErrorModel> model_;
   int summed_ = 0;
 };
 
@@ -120,7 +141,7 @@ struct PassSlice {
 
 // Receives each finished pass's image (pixels x 3), one call at a time, in
 // no particular order.
-using PassSink = std::function<void(int pass, std::vector<float>&& rgb)>;
+using PassSink = std::function<void(int pass, PassImage&& image)>;
 
 // Renders the passes of `slice` on every device of `devices` at once, the next
 // pass going to whichever device is free; stats.passes counts the passes done.

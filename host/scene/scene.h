@@ -119,6 +119,7 @@ struct IntegratorSettings {
   int spp = 0;  // per pass
   int passes = 0;
   float time = 0.0f;
+  float target_error = 0.0f;
   int seed = 0;
   int max_depth = -1;
   int rr_depth = 5;

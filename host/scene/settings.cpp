@@ -113,6 +113,11 @@ const std::vector<Setting>& settings_table() {
        "Render passes for this many seconds instead of a pass count; scene load, kernel builds and the pilot "
        "are reported apart",
        nullptr},
+      {"target_error", "--target-error", &I::target_error, 0, INFINITY, false, false, {}, nullptr,
+       [] { return std::string("0: no target"); },
+       "Render passes until the estimated relMSE of the image (METHOD.md 15) is below this; with a time budget, "
+       "whichever comes first",
+       nullptr},
       {"seed", "--seed", &I::seed, 0, 2147483647, false, false, {}, nullptr, nullptr,
        "Random seed: a pass draws its numbers from (seed, pass) alone (METHOD.md 7)", nullptr, false},
   };

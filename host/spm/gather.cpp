@@ -32,11 +32,13 @@ Gather::Gather(Device& device, const GpuScene& scene, size_t width, size_t pixel
   device_.queue().enqueueWriteBuffer(errors_, CL_TRUE, 0, sizeof no_error, &no_error);
 }
 
-uint64_t Gather::run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb) {
+uint64_t Gather::run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb, size_t from,
+                     size_t pixels, const char* label) {
   // The film of a whole image may not fit one allocation: tiles of pixels.
   uint64_t tests = 0;
-  for (size_t first = 0; first < pixels_; first += tile_) {
-    const size_t count = std::min(tile_, pixels_ - first);
+  const size_t end = std::min(pixels_, from + pixels);
+  for (size_t first = from; first < end; first += tile_) {
+    const size_t count = std::min(tile_, end - first);
     // The flags do not depend on the pass: an image of one tile probes once.
     if (params.emission_chains > 0 && chain_tile_ != first) {
       set_args(chain_kernel_, scene_, arg("camera", scene_.camera()), arg("chain_pixels", chain_pixels_),
@@ -51,7 +53,7 @@ uint64_t Gather::run(const MapGrids& grids, SpmGatherParams params, std::vector<
     // A work-item per block of SPM_GATHER_BLOCK^2 pixels, over the block
     // rows the tile touches (spm_gather.cl).
     const size_t block_rows = (first + count - 1) / width_ / SPM_GATHER_BLOCK - first / width_ / SPM_GATHER_BLOCK + 1;
-    device_.launch(kernel_, block_rows * ((width_ + SPM_GATHER_BLOCK - 1) / SPM_GATHER_BLOCK));
+    device_.launch(kernel_, block_rows * ((width_ + SPM_GATHER_BLOCK - 1) / SPM_GATHER_BLOCK), label);
     const auto film = device_.download<cl_float4>(film_, count);
     for (size_t i = 0; i < count; ++i) {
       for (int c = 0; c < 3; ++c) rgb[3 * (first + i) + c] += film[i].s[c];

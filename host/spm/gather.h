@@ -30,7 +30,14 @@ class Gather {
   // Adds the mean radiance of each pixel's samples over `grids` to rgb
   // (pixels x 3); returns the sphere tests the estimates made. `params`'s
   // tile (first_pixel, count) is set here.
-  uint64_t run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb);
+  uint64_t run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb) {
+    return run(grids, params, rgb, 0, pixels_);
+  }
+
+  // The same for the `count` pixels from `first` alone (in image order),
+  // the launches profiled as `label` (the kernel's name where null).
+  uint64_t run(const MapGrids& grids, SpmGatherParams params, std::vector<float>& rgb, size_t first, size_t count,
+               const char* label = nullptr);
 
   // Whether a pixel's radiance was NaN or infinite since the last call.
   bool nonfinite();

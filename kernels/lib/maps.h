@@ -21,6 +21,7 @@ typedef struct SpmMapTable {
   const __global SpmBeam* beams;
   uint density_kernel; /* SPM_KERNEL_* */
   uint estimator;      /* SPM_ESTIMATOR_*: the sphere grids' weights (beam_estimate) */
+  float scale;         /* every row's radius times this (SpmGatherParams.radius_scale) */
   /* Per reader, a bit per row it reads, so that an estimate visits those
    * rows alone; at most 32 rows. */
   uint reads[SPM_READERS];
@@ -29,7 +30,7 @@ typedef struct SpmMapTable {
 inline SpmMapTable make_map_table(const __global SpmMapGrid* grids, uint rows, const __global uint* cells,
                                   const __global float4* pos, const __global float4* surface_flux,
                                   const __global SpmVolumeRecord* volume_records, const __global SpmBeam* beams,
-                                  uint density_kernel, uint estimator) {
+                                  uint density_kernel, uint estimator, float scale) {
   SpmMapTable t;
   t.grids = grids;
   t.rows = rows;
@@ -40,6 +41,7 @@ inline SpmMapTable make_map_table(const __global SpmMapGrid* grids, uint rows, c
   t.beams = beams;
   t.density_kernel = density_kernel;
   t.estimator = estimator;
+  t.scale = scale;
   for (uint r = 0; r < SPM_READERS; ++r) t.reads[r] = 0u;
   for (uint g = 0; g < rows; ++g) {
     for (uint r = 0; r < SPM_READERS; ++r) t.reads[r] |= grids[g].radius[r] > 0.0f ? 1u << g : 0u;
@@ -71,7 +73,7 @@ inline float3 table_volume_estimate(const SpmMapTable* t, uint reader, const __g
   for (uint bits = t->reads[reader]; bits != 0u; bits &= bits - 1u) {
     const uint g = lowest_row(bits);
     const __global SpmMapGrid* row = &t->grids[g];
-    const float r = row->radius[reader];
+    const float r = row->radius[reader] * t->scale;
     if (row->kind == SPM_GRID_DISKS) continue;
     SpmGrid grid;
     table_grid(t, g, &grid);
@@ -94,7 +96,7 @@ inline float3 table_surface_estimate(const SpmMapTable* t, uint reader, float3 x
   for (uint bits = t->reads[reader]; bits != 0u; bits &= bits - 1u) {
     const uint g = lowest_row(bits);
     const __global SpmMapGrid* row = &t->grids[g];
-    const float r = row->radius[reader];
+    const float r = row->radius[reader] * t->scale;
     if (row->kind != SPM_GRID_DISKS) continue;
     SpmGrid grid;
     table_grid(t, g, &grid);

@@ -1,0 +1,63 @@
+#include "render/error_model.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace spm {
+
+ErrorModel::ErrorModel(size_t values) : bias_(values, 0.0), bias2_(values, 0.0), probes_(values, 0) {
+  for (auto& s : sum_) s.assign(values, 0.0);
+}
+
+void ErrorModel::add(int pass, const std::vector<float>& image, float radius, const std::vector<float>& probe) {
+  std::vector<double>& sum = sum_[pass % kReplicates];
+  for (size_t i = 0; i < sum.size(); ++i) sum[i] += image[i];
+  ++passes_[pass % kReplicates];
+  const double r2 = double(radius) * radius;
+  radius2_ += r2;
+  if (probe.empty()) return;
+  // The probe's difference is B r^2 (1 - kProbeScale^2).
+  const double per_r2 = 1.0 / (r2 * (1.0 - double(kProbeScale) * kProbeScale));
+  for (size_t i = 0; i < bias_.size(); ++i) {
+    if (std::isnan(probe[i])) continue;
+    const double b = probe[i] * per_r2;
+    bias_[i] += b;
+    bias2_[i] += b * b;
+    ++probes_[i];
+  }
+}
+
+ErrorEstimate ErrorModel::estimate() const {
+  ErrorEstimate e;
+  for (int r = 0; r < kReplicates; ++r) e.passes += passes_[r];
+  static_assert(kReplicates == 2, "the variance below is the two replicates'");
+  const double na = passes_[0], nb = passes_[1], n = na + nb;
+  if (na == 0 || nb == 0) return e;
+  const double mean_r2 = radius2_ / n;
+  double bias = 0.0;
+  size_t probed = 0;
+  for (size_t i = 0; i < bias_.size(); ++i) {
+    const double a = sum_[0][i] / na, b = sum_[1][i] / nb, mean = (sum_[0][i] + sum_[1][i]) / n;
+    const double weight = 1.0 / (mean * mean + 0.01);
+    // The image weighs the replicates' means by their passes; with each
+    // mean's variance inversely proportional to its passes, E[(a - b)^2]
+    // (1/na + 1/nb)^-1 is the variance of one pass's worth, and the image's
+    // is that over n: na nb (a - b)^2 / n^2.
+    e.variance += na * nb * (a - b) * (a - b) / (n * n) * weight;
+    // B^2 less the variance of B's own mean over the probes, which would
+    // otherwise count the probe's noise as bias.
+    const double m = probes_[i];
+    if (m < 2) continue;
+    const double mb = bias_[i] / m;
+    const double noise = std::max(0.0, (bias2_[i] - bias_[i] * mb) / (m - 1.0)) / m;
+    bias += (mb * mb - noise) * mean_r2 * mean_r2 * weight;
+    ++probed;
+  }
+  e.variance /= double(bias_.size());
+  // The probed pixels stand for the image.
+  e.bias = probed ? std::max(0.0, bias / double(probed)) : 0.0;
+  e.relmse = e.variance + e.bias;
+  return e;
+}
+
+}  // namespace spm
