@@ -291,13 +291,16 @@ void PassRenderer::run_probe(const MapGrids& grids, const SpmGatherParams& param
   stages.stage("probe", t);
 }
 
-void PassRenderer::balance_probe(const PassOutput& out) {
-  if (!probe_ || !(out.probe_seconds > 0.0) || !(out.gather_seconds > 0.0)) return;
+void PassRenderer::balance_probe(const PassOutput& out, double pass_seconds) {
+  if (!probe_ || !(out.probe_seconds > 0.0) || !(pass_seconds > 0.0)) return;
   // Rows in powers of two, so that the rows probed from now on are among
-  // those probed before or contain them.
-  const double want = probe_rows_ * out.probe_seconds / (kProbeShare * out.gather_seconds);
-  while (probe_rows_ < kMaxProbeRows && probe_rows_ < want / 1.5) probe_rows_ *= 2;
-  while (probe_rows_ > 1 && probe_rows_ > 1.5 * want) probe_rows_ /= 2;
+  // those probed before or contain them; at least kMinProbeRows rows of
+  // blocks, since a few rows give too few pixels to stand for the image.
+  const int block_rows = (settings_.height + SPM_GATHER_BLOCK - 1) / SPM_GATHER_BLOCK;
+  const int most = std::max(1, std::min(kMaxProbeRows, block_rows / kMinProbeRows));
+  const double want = probe_rows_ * out.probe_seconds / (kProbeShare * pass_seconds);
+  while (probe_rows_ < most && probe_rows_ < want / 1.5) probe_rows_ *= 2;
+  while (probe_rows_ > 1 && (probe_rows_ > 1.5 * want || probe_rows_ > most)) probe_rows_ /= 2;
 }
 
 PassOutput PassRenderer::render(int pass, Profiler* profiler, int track) {

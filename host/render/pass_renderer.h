@@ -52,8 +52,8 @@ class PassRenderer {
   void set_spp(int spp) { settings_.spp = spp; }
 
   // Sets the error probe's rows for the passes from now on from the time
-  // the probe and the gather of `out` took (kProbeShare).
-  void balance_probe(const PassOutput& out);
+  // the probe of `out` took in a pass of `pass_seconds` (kProbeShare).
+  void balance_probe(const PassOutput& out, double pass_seconds);
 
   // The next passes' camera samples are the pixels' samples first,
   // first + 1, ... of the scrambled sequence `strata` (kernels/lib/rng.h,

@@ -243,7 +243,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         const double took = busy.lap();
         elapsed += clock.lap();
         longest = std::max(longest, took);
-        renderer.balance_probe(out);
+        renderer.balance_probe(out, took);
         if (balance) {
           // From the means over this device's passes so far, steadier than
           // one pass. The first pass also pays for its kernels' first
