@@ -117,13 +117,15 @@ inline constexpr int kFirstBalancedSpp = 4;
 // blocks of pixels in the first pass; a device's later passes change the
 // stride by powers of two so that the probe takes about kProbeShare of a
 // pass (a probe of every row took 1.35 times the fog box's gather at 64x64,
-// 0.06 times cornell_fog's), up to kMaxProbeRows and keeping at least
+// 0.06 times cornell_fog's; at a tenth of the pass, cornell_fog's error at
+// 10 s rose by about a fifth, docs/experiments/error-estimate.md), up to
+// kMaxProbeRows and keeping at least
 // kMinProbeRows rows probed: with one or two rows of a 64x64 image the
 // fog box's estimated bias varied 2x from run to run.
 inline constexpr int kProbeRows = 8;
 inline constexpr int kMaxProbeRows = 64;
 inline constexpr int kMinProbeRows = 8;
-inline constexpr double kProbeShare = 0.1;
+inline constexpr double kProbeShare = 0.03;
 
 // Edge of the surface map's point grid cells, in gather radii. A query
 // examines about (2 + kSurfaceCell)^2 r^2 of surface for the pi r^2 it uses
