@@ -148,8 +148,9 @@ void write_profile(const RenderArgs& a, const spm::RenderSettings& settings, con
                    const nlohmann::json& rank_profiles) {
   if (a.profile) {
     spm::print_kernel_table(std::cout, profiler.kernels());
-    std::printf("stages: propagate %.3f s, grid build %.3f s, gather %.3f s, error probe %.3f s; passes %.3f s in all\n",
-                stats.propagate_seconds, stats.grid_seconds, stats.gather_seconds, stats.probe_seconds, stats.seconds);
+    std::printf(
+        "stages: propagate %.3f s, grid build %.3f s, gather %.3f s, error probe %.3f s; passes %.3f s in all\n",
+        stats.propagate_seconds, stats.grid_seconds, stats.gather_seconds, stats.probe_seconds, stats.seconds);
     std::printf("host: BVH %.3f s, kernel builds %.3f s\n", stats.bvh_seconds, stats.build_seconds);
     std::printf("gather: %llu camera samples, %.1f sphere tests per sample\n",
                 static_cast<unsigned long long>(stats.camera_samples),
