@@ -777,8 +777,8 @@ class Loader {
     IntegratorSettings& s = scene_.integrator;
     s.integrator_type = type;
     s.where = ctx_.where(node);
-    read_setting(p, find_setting("max_depth"), s);
-    read_setting(p, find_setting("rr_depth"), s);
+    read_setting(p, setting("max_depth"), s);
+    read_setting(p, setting("rr_depth"), s);
     if (p.get_bool("hide_emitters").value_or(false)) {
       p.fail("hide_emitters", "hide_emitters=true is not supported: spm draws the lights the camera sees");
     }

@@ -188,13 +188,6 @@ void read_settings(xml::Props& p, IntegratorSettings& in) {
   }
 }
 
-const Setting& find_setting(const std::string& name) {
-  for (const Setting& s : settings_table()) {
-    if (name == s.name) return s;
-  }
-  throw std::logic_error("no setting named " + name);
-}
-
 void set_from_flag(const Setting& s, const std::string& value, IntegratorSettings& in) {
   const std::string flag = s.flag;
   std::visit(

@@ -63,8 +63,6 @@ void read_settings(xml::Props& p, IntegratorSettings& in);
 // The same for one setting of the table.
 void read_setting(xml::Props& p, const Setting& s, IntegratorSettings& in);
 
-// The table's row named `name` (std::logic_error if none: a programming error).
-const Setting& find_setting(const std::string& name);
 
 // Sets `s` of `in` from the command line's text `value` (a boolean's:
 // "true" or "false"), marking its source CommandLine; throws InputError
