@@ -85,7 +85,7 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       scene_(&scene),
       tables_(tables),
       settings_(settings),
-      probe_(settings.error_probe && settings.passes != 1),
+      probe_(estimates_error(settings)),
       gpu_(device, tables),
       propagator_(device, gpu_, batch_settings(device, gpu_, scene, settings)),
       gather_(device, gpu_, size_t(settings.width), size_t(settings.width) * settings.height,

@@ -90,8 +90,7 @@ class PassRenderer {
   const Scene* scene_;
   const SceneTables& tables_;
   RenderSettings settings_;
-  // Whether each pass runs the error probe (render/error_model.h): a render
-  // of more than one pass that estimates its error.
+  // Whether each pass runs the error probe (estimates_error).
   bool probe_;
   int probe_rows_ = kProbeRows;  // the probe gathers every probe_rows_-th row of blocks
   GpuScene gpu_;

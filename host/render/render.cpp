@@ -38,9 +38,10 @@ RenderSettings resolve_settings(const Scene& scene, RenderSettings s) {
   }
   // A render for a time budget (integrator `time`, no pass count) or a
   // target error keeps passes = 0: it renders passes until the budget is
-  // spent or the estimated error is below the target, whichever comes first. Without a pass
-  // count or a budget, the sampler's sample_count is the render's total
-  // samples per pixel (SCENES.md), spread over passes of at most spp each.
+  // spent or the estimated error is below the target, whichever comes
+  // first. Without a pass count or a budget, the sampler's sample_count is
+  // the render's total samples per pixel (SCENES.md), spread over passes of
+  // at most spp each.
   if (s.passes == 0 && !(in.time > 0.0f) && !(in.target_error > 0.0f)) {
     if (in.passes > 0) {
       s.passes = in.passes;
@@ -308,7 +309,7 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
              RenderStats* stats, const Progress& progress, Profiler* profiler) {
   const RenderSettings s = resolve_settings(scene, settings);
   const bool timed = s.passes == 0;
-  OrderedSum sum(size_t(s.width) * s.height * 3, s.error_probe);
+  OrderedSum sum(size_t(s.width) * s.height * 3, estimates_error(s));
   // A target error stops the render once the passes summed so far reach it.
   std::atomic<bool> target_met{false};
   RenderSettings run = settings;

@@ -80,6 +80,11 @@ using Progress = std::function<void(int, int, const ErrorEstimate&)>;
 // InputError for values out of range.
 RenderSettings resolve_settings(const Scene& scene, RenderSettings s);
 
+// Whether a render with resolved settings `s` estimates its error: it runs
+// the error probe and keeps an ErrorModel (render/error_model.h). A render
+// of one pass has no spread to measure.
+inline bool estimates_error(const RenderSettings& s) { return s.error_probe && s.passes != 1; }
+
 // Search radius of pass `pass` (from 0) for initial radius r0 (METHOD.md 6).
 float pass_radius(float r0, float alpha, int pass);
 
