@@ -18,6 +18,8 @@ namespace {
 
 struct Synthetic {
   double mu = 1.0, bias = 0.2, noise = 0.05, probe_noise = 0.05;
+  // With it, the probe's noise is photon_r2 ^ 1/2 / r: the photon maps' kind.
+  double photon_r2 = 0.0;
   int passes = 6;
   size_t values = 600;
   bool half_probed = true;  // the probe covers every other value only
@@ -48,7 +50,7 @@ Truth truth(const Synthetic& c) {
   return t;
 }
 
-spm::ErrorEstimate run(const Synthetic& c, uint32_t seed) {
+spm::ErrorModel model_of(const Synthetic& c, uint32_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss;
   spm::ErrorModel model(c.values);
@@ -58,12 +60,15 @@ spm::ErrorEstimate run(const Synthetic& c, uint32_t seed) {
     std::vector<float> image(c.values), probe(c.values);
     for (size_t i = 0; i < c.values; ++i) {
       image[i] = float(c.mu + c.bias * r * r + c.noise * gauss(rng));
-      probe[i] = c.half_probed && i % 2 ? NAN : float(c.bias * r * r * (1 - s2) + c.probe_noise * gauss(rng));
+      const double probe_noise = c.photon_r2 > 0.0 ? std::sqrt(c.photon_r2) / r : c.probe_noise;
+      probe[i] = c.half_probed && i % 2 ? NAN : float(c.bias * r * r * (1 - s2) + probe_noise * gauss(rng));
     }
     model.add(k, image, float(r), probe);
   }
-  return model.estimate();
+  return model;
 }
+
+spm::ErrorEstimate run(const Synthetic& c, uint32_t seed) { return model_of(c, seed).estimate(); }
 
 void check(const Synthetic& c, uint32_t first_seed) {
   std::vector<double> variance, bias;
@@ -101,6 +106,29 @@ TEST(ErrorModel, ProbeNoiseIsNotBias) {
   std::vector<double> bias;
   for (uint32_t s = 0; s < 40; ++s) bias.push_back(run(c, 3000 + s).bias);
   EXPECT_LT(spm::test::mean_and_error(bias).mean, 1e-4);
+}
+
+// The planner's terms (render/planner.h): the photon maps' variance times
+// r^2 from consecutive probes, whose means differ by the radius's shrinking
+// alone (small here, as in a render: bias 0.02), and the bias per r^4.
+TEST(ErrorModel, FindsThePhotonVarianceAndTheBiasPerR4) {
+  Synthetic c;
+  c.bias = 0.02;
+  c.photon_r2 = 0.003;
+  c.passes = 8;
+  std::vector<double> photon, bias;
+  for (uint32_t s = 0; s < 40; ++s) {
+    const spm::ErrorTerms t = model_of(c, 4000 + s).terms();
+    ASSERT_TRUE(t.known);
+    photon.push_back(t.photon_r2);
+    bias.push_back(t.bias_per_r4);
+  }
+  const double mean = c.mu + c.bias * 0.8, weight = 1.0 / (mean * mean + 0.01);
+  const spm::test::MeanAndError p = spm::test::mean_and_error(photon), b = spm::test::mean_and_error(bias);
+  // The probes' differences also carry B r^3 (1 - s^2)'s change between
+  // passes, under 1e-5 of photon_r2 here; the weight's mean varies by 2%.
+  EXPECT_NEAR(p.mean, c.photon_r2 * weight, 4 * p.error + 0.03 * c.photon_r2 * weight);
+  EXPECT_NEAR(b.mean, c.bias * c.bias * weight, 4 * b.error + 0.03 * c.bias * c.bias * weight);
 }
 
 TEST(ErrorModel, UnknownUntilBothReplicatesHaveAPass) {

@@ -5,7 +5,8 @@
 
 namespace spm {
 
-ErrorModel::ErrorModel(size_t values) : bias_(values, 0.0), bias2_(values, 0.0), probes_(values, 0) {
+ErrorModel::ErrorModel(size_t values)
+    : bias_(values, 0.0), bias2_(values, 0.0), probes_(values, 0), last_(values, 0.0f), photon_(values, 0.0) {
   for (auto& s : sum_) s.assign(values, 0.0);
 }
 
@@ -21,10 +22,21 @@ void ErrorModel::add(int pass, const std::vector<float>& image, float radius, co
   for (size_t i = 0; i < bias_.size(); ++i) {
     if (std::isnan(probe[i])) continue;
     const double b = probe[i] * per_r2;
+    const double u = double(probe[i]) * radius;
+    if (probes_[i] > 0) photon_[i] += 0.5 * (u - last_[i]) * (u - last_[i]);
+    last_[i] = float(u);
     bias_[i] += b;
     bias2_[i] += b * b;
     ++probes_[i];
   }
+}
+
+double ErrorModel::bias2(size_t i) const {
+  // B^2 less the variance of B's own mean over the probes, which would
+  // otherwise count the probe's noise as bias.
+  const double m = probes_[i], mb = bias_[i] / m;
+  const double noise = std::max(0.0, (bias2_[i] - bias_[i] * mb) / (m - 1.0)) / m;
+  return mb * mb - noise;
 }
 
 ErrorEstimate ErrorModel::estimate() const {
@@ -44,13 +56,8 @@ ErrorEstimate ErrorModel::estimate() const {
     // (1/na + 1/nb)^-1 is the variance of one pass's worth, and the image's
     // is that over n: na nb (a - b)^2 / n^2.
     e.variance += na * nb * (a - b) * (a - b) / (n * n) * weight;
-    // B^2 less the variance of B's own mean over the probes, which would
-    // otherwise count the probe's noise as bias.
-    const double m = probes_[i];
-    if (m < 2) continue;
-    const double mb = bias_[i] / m;
-    const double noise = std::max(0.0, (bias2_[i] - bias_[i] * mb) / (m - 1.0)) / m;
-    bias += (mb * mb - noise) * mean_r2 * mean_r2 * weight;
+    if (probes_[i] < 2) continue;
+    bias += bias2(i) * mean_r2 * mean_r2 * weight;
     ++probed;
   }
   e.variance /= double(bias_.size());
@@ -58,6 +65,29 @@ ErrorEstimate ErrorModel::estimate() const {
   e.bias = probed ? std::max(0.0, bias / double(probed)) : 0.0;
   e.relmse = e.variance + e.bias;
   return e;
+}
+
+ErrorTerms ErrorModel::terms() const {
+  ErrorTerms t;
+  const double na = passes_[0], nb = passes_[1], n = na + nb;
+  if (na == 0 || nb == 0) return t;
+  t.pass_variance = estimate().variance * n;
+  double bias = 0.0, photon = 0.0;
+  size_t probed = 0;
+  for (size_t i = 0; i < bias_.size(); ++i) {
+    const double m = probes_[i];
+    if (m < 2) continue;
+    const double mean = (sum_[0][i] + sum_[1][i]) / n;
+    const double weight = 1.0 / (mean * mean + 0.01);
+    bias += bias2(i) * weight;
+    photon += photon_[i] / (m - 1.0) * weight;
+    ++probed;
+  }
+  if (!probed) return t;
+  t.known = true;
+  t.bias_per_r4 = std::max(0.0, bias / double(probed));
+  t.photon_r2 = photon / double(probed);
+  return t;
 }
 
 }  // namespace spm

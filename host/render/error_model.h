@@ -19,6 +19,16 @@
 // B r^2 (1 - kProbeScale^2). The probe rows are the same in every pass, so
 // that the spread of a pixel's measurements over passes removes their own
 // noise from B^2.
+//
+// Photon noise. For a kernel over a disk (the beam estimate's cross-section,
+// a surface estimate), the records within r / sqrt(2) are a subset of
+// those within r, so the probe's difference D has the variance of the
+// estimate at r itself less nothing but its own subset: Var(D) =
+// Var(estimate at r), which grows as 1/r^2. Consecutive probes of a value,
+// each times its pass's radius, differ by noise alone (their means differ
+// by the radius's shrinking, a few per cent of B r^2), so half their
+// squared difference is Q = Var(estimate at r) r^2: the photon maps' part
+// of a pass's variance at any radius (ErrorTerms, render/planner.h).
 #pragma once
 
 #include <cstddef>
@@ -43,6 +53,15 @@ struct ErrorEstimate {
   double bias = 0.0;  // the bias part, squared
 };
 
+// What the planner (render/planner.h) reads of the model: per pass, in the
+// weighted relMSE units of ErrorEstimate, over the passes added so far.
+struct ErrorTerms {
+  bool known = false;           // both replicates have a pass and values have two probes
+  double pass_variance = 0.0;   // the variance of one pass's image
+  double photon_r2 = 0.0;       // Q: the photon maps' variance of one pass times r^2
+  double bias_per_r4 = 0.0;     // beta^2: the bias part is beta^2 r^4
+};
+
 class ErrorModel {
  public:
   explicit ErrorModel(size_t values);
@@ -56,11 +75,17 @@ class ErrorModel {
   // The estimate for the mean of the passes added so far.
   ErrorEstimate estimate() const;
 
+  ErrorTerms terms() const;
+
  private:
+  double bias2(size_t value) const;  // B^2 of a value with two probes or more
+
   std::vector<double> sum_[kReplicates];  // per value, the replicate's passes summed
   int passes_[kReplicates] = {};
   std::vector<double> bias_, bias2_;  // per value, over its probes: B and B^2
   std::vector<uint32_t> probes_;      // per value, its probes
+  std::vector<float> last_;           // per value, its last probe's D r
+  std::vector<double> photon_;        // per value, over consecutive probes: (D r - D' r')^2 / 2
   double radius2_ = 0.0;              // over passes, r^2
 };
 
