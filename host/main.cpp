@@ -213,6 +213,14 @@ int cmd_render(const RenderArgs& a) {
       used["pilot_s"] = pilot_seconds;
     };
   }
+  if (cluster.root()) {
+    settings.planned = [&](int passes, const spm::Plan& plan, float radius) {
+      std::fprintf(stderr, "spm: plan after %d passes: radius %.6g (%.3g x derived)%s, predicted relMSE %.3g\n",
+                   passes, radius, plan.scale,
+                   scene.integrator.time > 0.0f ? (", " + std::to_string(plan.spp) + " samples per pass").c_str() : "",
+                   plan.predicted);
+    };
+  }
   settings.stop = &g_interrupted;
   std::signal(SIGINT, on_sigint);
   const bool tty = ::isatty(STDERR_FILENO);

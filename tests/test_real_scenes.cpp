@@ -319,6 +319,34 @@ TEST(ScaleFree, ScaledScenesRenderTheSameImage) {
   }
 }
 
+// The error model's plan (render/planner.h) reads relMSE and the radius
+// in its own units, so the scaled scenes plan the same scale for their
+// derived radii and render the same image after it, 6 passes with the plan
+// after the second.
+TEST(ScaleFree, ThePlanIsTheSameAtAnyScale) {
+  spm::Scene scene = spm::load_scene(kFogBox, {{"res", "16"}});
+  scene.integrator.streams = 3000;
+  const auto planned = [](const spm::Scene& sc, uint32_t seed, float* scale) {
+    spm::RenderSettings s;
+    s.passes = 6;
+    s.spp = 2;
+    s.seed = seed;
+    spm::RenderStats stats;
+    const spm::Image image = spm::render(sc, s, spm::test::device(), &stats);
+    if (scale) *scale = stats.radius_scale;
+    return image;
+  };
+  float scale = 0.0f;
+  const spm::Image base = planned(scene, 9, &scale), other_seed = planned(scene, 10, nullptr);
+  const double noise = rel_mse(other_seed, base);
+  for (float k : {100.0f, 0.01f}) {
+    float at_k = 0.0f;
+    const double e = rel_mse(planned(scaled(scene, k), 9, &at_k), base);
+    EXPECT_FLOAT_EQ(at_k, scale) << "scale " << k;
+    EXPECT_LT(e, 0.05 * noise) << "scale " << k << ": relMSE " << e << " against two seeds' " << noise;
+  }
+}
+
 TEST(ScaleFree, SampleCountIsTheRendersTotalSamplesPerPixel) {
   spm::Scene scene = spm::load_scene(kFogBox, {{"res", "64"}, {"spp", "256"}});
   const spm::RenderSettings s = spm::resolve_settings(scene, {});

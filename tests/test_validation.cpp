@@ -15,11 +15,15 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "film/image_io.h"
 #include "render/render.h"
@@ -347,6 +351,62 @@ TEST(Validation, TheErrorEstimateMatchesTheReferencesError) {
                     c.scene, seed, passes, stats.error.relmse, stats.error.variance, stats.error.bias, actual, ratio);
       }
     }
+  }
+}
+
+// scenes/NAME.xml in the form a Mitsuba 3 user has it (tools/mitsuba_form.py):
+// its integrator block replaced by volpath, so that every spm setting is
+// derived; written to a temporary file, whose path is returned.
+std::string mitsuba_form(const std::string& name) {
+  std::ifstream in(std::string(SPM_SCENES_DIR "/") + name + ".xml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  const size_t first = xml.find("<integrator"), last = xml.find("</integrator>");
+  EXPECT_NE(first, std::string::npos);
+  EXPECT_NE(last, std::string::npos);
+  xml.replace(first, last + std::string("</integrator>").size() - first,
+              "<integrator type=\"volpath\"><integer name=\"max_depth\" value=\"64\"/>"
+              "<integer name=\"rr_depth\" value=\"5\"/></integrator>");
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("spm_" + std::to_string(::getpid()) + "_mitsuba_" + name + ".xml"))
+                               .string();
+  std::ofstream(path) << xml;
+  return path;
+}
+
+// Self-tuning against hand-tuning (issue 44): each scene in its Mitsuba
+// form, 8 passes at 64x64, seed 1. The derived render's relMSE is within
+// 1.25 times the best of the same render with the radius set by hand to
+// 0.5, 0.71, 1.41 and 2 times the derived one (volume radius and stream
+// width derived from it, as in the derived render). Measured here: caustic_area
+// 0.00217 derived (the pilot's 8.98 planned down to 4.49) against 0.00207
+// at 1.41x, 0.00320 at 0.5x; fog_box 0.00112 against 0.00111 at 1.41x.
+// cornell_fog's curve is flat at a pass count (camera noise: 0.0082-0.0086
+// over the sweep), so it would test nothing; its radius matters at equal
+// time, where the plan weighs its cost (docs/experiments/self-tuning.md).
+TEST(Validation, TheDerivedRadiusIsWithinTheSweepsBest) {
+  for (const std::string name : {"caustic_area", "fog_box"}) {
+    const Reference ref = load_reference(name);
+    const std::string file = mitsuba_form(name);
+    spm::RenderSettings s;
+    s.passes = 8;
+    s.seed = 1;
+    float radius = 0.0f;
+    s.announce = [&](const spm::Scene& used, double) { radius = used.integrator.radius; };
+    const double derived = rel_mse(spm::render(spm::load_scene(file, ref.defines), s, spm::test::device()), ref.image);
+    s.announce = {};
+    double best = INFINITY;
+    for (const float f : {0.5f, 0.70710678f, 1.41421356f, 2.0f}) {
+      auto scene = spm::load_scene(file, ref.defines);
+      scene.integrator.radius = radius * f;
+      const double e = rel_mse(spm::render(scene, s, spm::test::device()), ref.image);
+      std::printf("%s: radius %.4g (%.2f x derived): relMSE %.4g\n", name.c_str(), radius * f, f, e);
+      best = std::min(best, e);
+    }
+    std::filesystem::remove(file);
+    std::printf("%s: derived radius %.4g: relMSE %.4g, best of the sweep %.4g\n", name.c_str(), radius, derived, best);
+    EXPECT_LE(derived, 1.25 * best) << name << ": derived radius " << radius;
   }
 }
 

@@ -223,7 +223,8 @@ def main() -> int:
 
     # 1. Sweep.
     rows = []
-    for est in estimators:
+    # An empty --passes skips the sweep (the equal-time comparison alone).
+    for est in estimators if passes else []:
         for n in passes:
             exr = out / f"spm_{est}_{n:04d}.exr"
             r = run_spm(spm, args.scene, exr, res, n, est, args.seed, args.defines, args.spm_arg, log)
@@ -240,7 +241,8 @@ def main() -> int:
     fields = ["estimator", "passes", "seconds", "wall", "relmse", "rmse", "mean_ratio_all", "mean_r", "mean_g",
               "mean_b", "command"]
     write_csv(out / "sweep.csv", rows, fields)
-    plot_sweep(rows, out / "convergence.png", f"{name}: spm vs Mitsuba volpath, {res[0]}x{res[1]}")
+    if rows:
+        plot_sweep(rows, out / "convergence.png", f"{name}: spm vs Mitsuba volpath, {res[0]}x{res[1]}")
     md = [f"# {name}: spm against Mitsuba volpath ({args.reference.name}, {res[0]}x{res[1]})", "",
           "| estimator | passes | seconds | relMSE | mean ratio spm/ref |", "|---|---|---|---|---|"]
     md += [f"| {r['estimator']} | {r['passes']} | {r['seconds']:.2f} | {r['relmse']:.4g} | "

@@ -72,21 +72,29 @@ ErrorTerms ErrorModel::terms() const {
   const double na = passes_[0], nb = passes_[1], n = na + nb;
   if (na == 0 || nb == 0) return t;
   t.pass_variance = estimate().variance * n;
-  double bias = 0.0, photon = 0.0;
+  double bias = 0.0, bias_sq = 0.0, photon = 0.0;
   size_t probed = 0;
   for (size_t i = 0; i < bias_.size(); ++i) {
     const double m = probes_[i];
     if (m < 2) continue;
     const double mean = (sum_[0][i] + sum_[1][i]) / n;
     const double weight = 1.0 / (mean * mean + 0.01);
-    bias += bias2(i) * weight;
+    const double b = bias2(i) * weight;
+    bias += b;
+    bias_sq += b * b;
     photon += photon_[i] / (m - 1.0) * weight;
     ++probed;
   }
   if (!probed) return t;
   t.known = true;
-  t.bias_per_r4 = std::max(0.0, bias / double(probed));
-  t.photon_r2 = photon / double(probed);
+  // The mean over the probed values less kBiasConfidence standard errors of
+  // it: a plan acts on a bias the probes have shown, not on their noise
+  // (mirror_area's heavy-tailed caustic read a bias in one plan and none in
+  // the next, and the radius swung by 4x between them).
+  const double k = double(probed), mean_bias = bias / k;
+  const double spread = k > 1.0 ? std::max(0.0, (bias_sq - bias * mean_bias) / (k - 1.0)) : 0.0;
+  t.bias_per_r4 = std::max(0.0, mean_bias - kBiasConfidence * std::sqrt(spread / k));
+  t.photon_r2 = photon / k;
   return t;
 }
 

@@ -40,6 +40,10 @@ namespace spm {
 // Independently scrambled camera-sample sequences the passes alternate between.
 constexpr int kReplicates = 2;
 
+// Standard errors of its mean over the probed values that ErrorTerms takes
+// off the bias per r^4.
+constexpr double kBiasConfidence = 2.0;
+
 // The radius scale of the probe's second gather.
 constexpr float kProbeScale = 0.70710678f;
 
@@ -59,7 +63,7 @@ struct ErrorTerms {
   bool known = false;           // both replicates have a pass and values have two probes
   double pass_variance = 0.0;   // the variance of one pass's image
   double photon_r2 = 0.0;       // Q: the photon maps' variance of one pass times r^2
-  double bias_per_r4 = 0.0;     // beta^2: the bias part is beta^2 r^4
+  double bias_per_r4 = 0.0;     // beta^2, the bias part over r^4, less kBiasConfidence standard errors
 };
 
 class ErrorModel {

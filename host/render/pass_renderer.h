@@ -55,6 +55,10 @@ class PassRenderer {
   // the probe of `out` took in a pass of `pass_seconds` (kProbeShare).
   void balance_probe(const PassOutput& out, double pass_seconds);
 
+  // Whether the passes from now on run the error probe (at first:
+  // estimates_error); the tuning passes run it wherever they render.
+  void set_probe(bool on) { probe_ = on; }
+
   // The next passes' camera samples are the pixels' samples first,
   // first + 1, ... of the scrambled sequence `strata` (kernels/lib/rng.h,
   // stratify2). Without it pass p's are (p / kReplicates) x spp onwards of

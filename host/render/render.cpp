@@ -3,11 +3,14 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "render/defaults.h"
 #include "render/pass_renderer.h"
+#include "render/planner.h"
 #include "scene/integrator_options.h"
 #include "scene/settings.h"
 #include "scene/gpu_scene.h"
@@ -151,8 +154,36 @@ Scene sized_for_budget(const Scene& scene, RenderSettings& s, double pilot_secon
   return out;
 }
 
+namespace {
+
+// One device's pass loop between calls of its `work` (render_passes): its
+// clock and what it has measured of its passes.
+struct DeviceLoop {
+  Timer clock;
+  int done = 0;
+  double elapsed = 0.0, longest = 0.0;
+  int spp = 0;
+  // Means over the device's passes (the first left out: it also pays for
+  // its kernels' first launches) and the longest parts, which predict a
+  // balanced pass's length.
+  double photon_seconds = 0.0, gather_seconds = 0.0, samples = 0.0;
+  double longest_rest = 0.0, longest_per_sample = 0.0;
+};
+
+bool radius_derived(const IntegratorSettings& in) { return in.source("radius") == SettingSource::Derived; }
+
+// The scene's derived radii times `scale` (a plan's, render/planner.h):
+// the radius, the stream width and the volume radius that follow it.
+void scale_radii(IntegratorSettings& in, float scale) {
+  in.radius *= scale;
+  if (in.source("width") == SettingSource::Derived) in.stream_width *= scale;
+  if (in.source("volume_radius") == SettingSource::Derived) in.volume_radius *= scale;
+}
+
+}  // namespace
+
 RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings, const std::vector<Device*>& devices,
-                          PassSlice slice, const PassSink& sink, Profiler* profiler) {
+                          PassSlice slice, const PassSink& sink, Profiler* profiler, const TermsSource& terms) {
   RenderSettings s = resolve_settings(scene_in, settings);
   const bool timed = s.passes == 0;
   // A render to a target error alone has no time budget.
@@ -175,8 +206,27 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   }
   Scene scene = sized_for_budget(derive_scale(scene_in, pilot), s, pilot.seconds);
   fill_derived(scene, s);
-  if (s.announce) s.announce(scene, pilot.seconds);
   renderers[0]->set_scene(scene);
+  // A derived radius is planned (render/planner.h): the first kTuningPasses
+  // passes render on device 0 alone at the derived radius, with the error
+  // probe, into an error model of their own, whose plan then sets the radius
+  // of the passes after them. Every MPI rank renders them and plans alike,
+  // keeping those of its own slice, so that the image depends on neither
+  // the devices, the ranks nor their timing. A timed render plans from the
+  // caller's model (`terms`, one process only), and with derived samples
+  // plans each pass's samples too.
+  const bool planned = terms && slice.stride == 1 && timed;
+  const bool tunes = radius_derived(scene.integrator) && (timed ? planned : s.passes > kTuningPasses);
+  if (s.announce && !tunes) s.announce(scene, pilot.seconds);
+  // The passes before the plan: the tuning passes and a timed render's cost pass.
+  const int tuning = tunes ? kTuningPasses + (timed ? 1 : 0) : 0;
+  std::optional<ErrorModel> tuning_model;
+  if (tunes) tuning_model.emplace(size_t(s.width) * s.height * 3);
+  // This process's k-th pass: the tuning passes first, then its slice's
+  // passes after them (slice.offset + j slice.stride, the j-th).
+  const int first_after = tunes ? std::max(0, (tuning - slice.offset + slice.stride - 1) / slice.stride) : 0;
+  const auto pass_of = [&](int k) { return k < tuning ? k : slice.offset + (first_after + k - tuning) * slice.stride; };
+  const auto in_slice = [&](int pass) { return pass >= slice.offset && (pass - slice.offset) % slice.stride == 0; };
 
   std::mutex mutex;
   std::atomic<int> next{0};
@@ -194,43 +244,76 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   const auto stopping = [&] {
     return failed.load() || (s.stop && s.stop->load()) || (s.target_met && s.target_met->load());
   };
+  // A timed render with derived samples per pass balances them from the
+  // stage times of its passes so far; their count then depends on timing,
+  // as the number of passes already does.
+  const bool balance = timed && s.spp_derived;
+  std::vector<DeviceLoop> loops(devices.size());
+  // The derived radii's scale (render/planner.h), and what a timed render's
+  // tuning measured of the costs at two scales, for its plans after.
+  float scale = 1.0f;
+  PlanInputs tuned;
+  const auto rescale = [&](float to) {
+    if (to == scale) return;
+    scale_radii(scene.integrator, to / scale);
+    scale = to;
+    renderers[0]->set_scene(scene);
+  };
+  // With one device, a timed render plans its radius again after
+  // kReplanPasses passes, twice that, ..., from the model's terms over more
+  // probes; with several, the devices read the scene while they render, and
+  // it stays.
+  const bool replans = timed && devices.size() == 1;
+  // What a plan reads of device `d`'s passes so far, for the passes from
+  // `done` on; passes 0: the seconds left in `budget`.
+  const auto plan_inputs = [&](size_t d, int done, double left) {
+    const DeviceLoop& l = loops[d];
+    const double passes = std::max(1, l.done - 1);
+    PlanInputs in;
+    if (terms) {
+      std::lock_guard<std::mutex> lock(mutex);
+      in.terms = terms();
+    }
+    in.radius = pass_radius(scene.integrator.radius, scene.integrator.alpha, done);
+    in.spp = l.samples > 0.0 ? l.samples / passes : double(l.spp);
+    in.done = done;
+    in.passes = timed ? 0 : s.passes;
+    in.seconds = std::isfinite(budget) ? left : kTargetHorizon * l.elapsed;
+    in.fixed_seconds = l.photon_seconds / passes;
+    in.sample_seconds = l.gather_seconds / std::max(1.0, l.samples);
+    in.max_spp = kMaxPassSpp;
+    in.max_pass_seconds = kPassShareOfBudget * budget;
+    in.choose_spp = balance;
+    return in;
+  };
 
-  const auto work = [&](size_t d) {
+  const auto work = [&](size_t d, int last) {
     try {
       Device& device = *devices[d];
       st.devices[d].name = device.info().name;
       if (profiler) profiler->add_device(int(d), device.info().name);
       if (!renderers[d]) renderers[d] = std::make_unique<PassRenderer>(device, scene, tables, s);
       PassRenderer& renderer = *renderers[d];
-      // The budget counts from here: scene upload and kernel builds are
-      // reported apart (RenderStats::build_seconds).
-      Timer clock;
-      // A pass starts only when its predicted length, the longest pass so
-      // far (at first the pilot's estimate; with balanced samples, from its
-      // parts, below), still fits the budget; device 0 renders one pass in
-      // any case.
-      double elapsed = 0.0, longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * budget);
-      // A timed render with derived samples per pass balances them from the
-      // stage times of its passes so far (balanced_spp); their count then
-      // depends on timing, as the number of passes already does.
-      const bool balance = timed && s.spp_derived;
-      int spp = balance ? std::min(s.spp, kFirstBalancedSpp) : s.spp;
-      if (balance) renderer.set_spp(spp);
-      double photon_seconds = 0.0, gather_seconds = 0.0, samples = 0.0;
-      // With balancing, a pass's length is predicted from its parts: the
-      // longest non-gather part and the slowest gather per sample so far,
-      // times its samples; the longest pass of another sample count would
-      // misjudge it.
-      double longest_rest = 0.0, longest_per_sample = 0.0;
-      for (int done = 0;; ++done) {
-        if (stopping()) break;
-        if (timed && (d > 0 || done > 0) && elapsed + longest > budget) break;
-        // This process's k-th pass is slice.offset + k slice.stride.
-        const int k = next++;
-        const int pass = slice.offset + k * slice.stride;
+      DeviceLoop& l = loops[d];
+      // The budget counts from a device's first pass: scene upload and
+      // kernel builds are reported apart (RenderStats::build_seconds).
+      if (l.done == 0) {
+        l.clock = Timer();
+        // A pass starts only when its predicted length, the longest pass so
+        // far (at first the pilot's estimate; with balanced samples, from
+        // its parts, below), still fits the budget; device 0 renders one
+        // pass in any case.
+        l.longest = std::min(first_pass_estimate(scene, pilot.seconds), kPassShareOfBudget * budget);
+        l.spp = balance ? std::min(s.spp, kFirstBalancedSpp) : s.spp;
+        if (balance) renderer.set_spp(l.spp);
+      }
+      for (;; ++l.done) {
+        if (stopping() || next.load() >= last) break;
+        if (timed && (d > 0 || l.done > 0) && l.elapsed + l.longest > budget) break;
+        const int pass = pass_of(next++);
         if (!timed && pass >= s.passes) break;
         if (balance) {
-          renderer.set_first_sample(samples_claimed[pass % kReplicates].fetch_add(uint32_t(spp)),
+          renderer.set_first_sample(samples_claimed[pass % kReplicates].fetch_add(uint32_t(l.spp)),
                                     1u + uint32_t(slice.offset));
         }
         Timer busy;
@@ -242,32 +325,66 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
           device.take_launches();
         }
         const double took = busy.lap();
-        elapsed += clock.lap();
-        longest = std::max(longest, took);
-        renderer.balance_probe(out, took);
+        l.elapsed += l.clock.lap();
+        l.longest = std::max(l.longest, took);
+        // The tuning passes keep the probe's first rows, which the radius's
+        // plan then does not take from timing.
+        if (pass >= tuning) renderer.balance_probe(out, took);
+        // The first pass also pays for its kernels' first launches (PoCL
+        // compiles the gather for its work-group size then: cornell_fog at
+        // 64x64 with a cold cache waited 1.06 s before a gather of 0.09 s),
+        // which would starve later passes of samples, so the means and the
+        // longest parts start again from the second pass.
+        if (l.done == 1) l.photon_seconds = l.gather_seconds = l.samples = 0.0;
+        if (l.done == 1) l.longest_rest = l.longest_per_sample = 0.0;
+        l.photon_seconds += out.propagate_seconds + out.grid_seconds + out.probe_seconds;
+        l.gather_seconds += out.gather_seconds;
+        l.samples += l.spp;
         if (balance) {
-          // From the means over this device's passes so far, steadier than
-          // one pass. The first pass also pays for its kernels' first
-          // launches (PoCL compiles the gather for its work-group size then:
-          // cornell_fog at 64x64 with a cold cache waited 1.06 s before a
-          // gather of 0.09 s), which would starve later passes of samples, so the
-          // means and the longest parts start again from the second pass.
-          if (done == 1) photon_seconds = gather_seconds = samples = longest_rest = longest_per_sample = 0.0;
-          photon_seconds += out.propagate_seconds + out.grid_seconds;
-          gather_seconds += out.gather_seconds;
-          samples += spp;
-          const int next_spp =
-              balanced_spp(photon_seconds / std::max(1, done), gather_seconds * spp / samples, spp, budget);
-          longest_rest = std::max(longest_rest, took - out.gather_seconds);
-          longest_per_sample = std::max(longest_per_sample, out.gather_seconds / spp);
-          longest = longest_rest + longest_per_sample * next_spp;
-          spp = next_spp;
-          renderer.set_spp(spp);
+          int next_spp = balanced_spp(l.photon_seconds / std::max(1, l.done),
+                                      l.gather_seconds * l.spp / l.samples, l.spp, budget);
+          // After the tuning passes the model plans the samples.
+          if (planned && pass + 1 >= std::max(kTuningPasses, tuning + 1)) {
+            const Plan plan = plan_passes([&] {
+              PlanInputs in = plan_inputs(d, pass + 1, budget - l.elapsed);
+              in.choose_scale = false;
+              return in;
+            }());
+            if (plan.predicted >= 0.0) next_spp = plan.spp;
+          }
+          const int passes = pass + 1;
+          if (tunes && replans && passes >= kReplanPasses && passes % kReplanPasses == 0 &&
+              ((passes / kReplanPasses) & (passes / kReplanPasses - 1)) == 0) {
+            PlanInputs in = tuned;
+            {
+              std::lock_guard<std::mutex> lock(mutex);
+              in.terms = terms();
+            }
+            in.spp = l.samples / std::max(1, l.done);
+            in.done = passes;
+            in.done_scale = scale;
+            in.seconds = budget - l.elapsed;
+            const Plan plan = plan_passes(in);
+            if (plan.predicted >= 0.0) {
+              if (plan.scale != scale && s.planned) s.planned(passes, plan, scene.integrator.radius * plan.scale / scale);
+              rescale(plan.scale);
+              next_spp = plan.spp;
+              l.longest_rest = plan.fixed_seconds;
+              l.longest_per_sample = plan.sample_seconds;
+            }
+          }
+          l.longest_rest = std::max(l.longest_rest, took - out.gather_seconds);
+          l.longest_per_sample = std::max(l.longest_per_sample, out.gather_seconds / l.spp);
+          l.longest = l.longest_rest + l.longest_per_sample * next_spp;
+          l.spp = next_spp;
+          renderer.set_spp(l.spp);
         }
+        if (pass < tuning) tuning_model->add(pass, out.rgb, out.radius, out.probe);
+        if (!in_slice(pass)) continue;
         std::lock_guard<std::mutex> lock(mutex);
         st.devices[d].passes += 1;
         st.devices[d].busy_seconds += took;
-        st.seconds = std::max(st.seconds, elapsed);
+        st.seconds = std::max(st.seconds, l.elapsed);
         st.propagate_seconds += out.propagate_seconds;
         st.grid_seconds += out.grid_seconds;
         st.gather_seconds += out.gather_seconds;
@@ -283,11 +400,50 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
       failed = true;
     }
   };
+  if (tunes) {
+    renderers[0]->set_probe(true);
+    work(0, kTuningPasses);
+    if (error) std::rethrow_exception(error);
+    DeviceLoop& l = loops[0];
+    PlanInputs in = plan_inputs(0, next.load(), budget - l.elapsed);
+    in.terms = tuning_model->terms();
+    if (timed && !stopping()) {
+      // A timed render weighs a radius's error against its cost: one more
+      // pass, at kCostScale of the radius, measures how the pass's stages
+      // grow with it (render/planner.h). It is the image's next pass.
+      rescale(kCostScale);
+      const DeviceLoop before = l;
+      work(0, kTuningPasses + 1);
+      if (error) std::rethrow_exception(error);
+      in.fixed_seconds_scaled = l.photon_seconds - before.photon_seconds;
+      in.sample_seconds_scaled = (l.gather_seconds - before.gather_seconds) / std::max(1.0, l.samples - before.samples);
+      in.done = next.load();
+      in.seconds = std::isfinite(budget) ? budget - l.elapsed : in.seconds;
+      tuned = in;
+    }
+    renderers[0]->set_probe(estimates_error(s));
+    tuning_model.reset();
+    const Plan plan = plan_passes(in);
+    if (plan.predicted >= 0.0) {
+      rescale(plan.scale);
+      if (s.planned) s.planned(in.done, plan, scene.integrator.radius);
+    }
+    if (balance && plan.predicted >= 0.0) {
+      l.spp = plan.spp;
+      renderers[0]->set_spp(l.spp);
+      // The longest parts so far were at other radii.
+      l.longest_rest = plan.fixed_seconds;
+      l.longest_per_sample = plan.sample_seconds;
+      l.longest = plan.fixed_seconds + plan.sample_seconds * l.spp;
+    }
+    if (s.announce) s.announce(scene, pilot.seconds);
+  }
   std::vector<std::thread> threads;
-  for (size_t d = 1; d < devices.size(); ++d) threads.emplace_back(work, d);
-  work(0);
+  for (size_t d = 1; d < devices.size(); ++d) threads.emplace_back(work, d, std::numeric_limits<int>::max());
+  work(0, std::numeric_limits<int>::max());
   for (auto& t : threads) t.join();
   if (error) std::rethrow_exception(error);
+  st.radius_scale = scale;
   st.interrupted = s.stop && s.stop->load();
   st.bvh_seconds = tables.bvh_seconds;
   for (Device* d : devices) st.build_seconds += d->build_seconds();
@@ -315,7 +471,8 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
   RenderSettings run = settings;
   run.target_met = &target_met;
   const RenderStats st = render_passes(
-      scene, run, devices, PassSlice{}, [&](int pass, PassImage&& image) {
+      scene, run, devices, PassSlice{},
+      [&](int pass, PassImage&& image) {
         const int before = sum.summed();
         sum.add(pass, std::move(image));
         if (sum.summed() == before) return;
@@ -325,7 +482,7 @@ Image render(const Scene& scene, const RenderSettings& settings, const std::vect
         if (target > 0.0f && e.relmse >= 0.0 && e.relmse < target) target_met = true;
         if (progress) progress(sum.summed(), timed ? 0 : s.passes, e);
       },
-      profiler);
+      profiler, estimates_error(s) ? TermsSource([&] { return sum.terms(); }) : TermsSource());
   if (stats) {
     *stats = st;
     // With a time budget, only the passes before the first unfinished one count.

@@ -15,6 +15,7 @@
 #include "scene/scene.h"
 #include "profile/profile.h"
 #include "render/error_model.h"
+#include "render/planner.h"
 #include "spm/propagate.h"
 
 namespace spm {
@@ -44,6 +45,10 @@ struct RenderSettings {
   // Called once before the first pass with the scene as it renders, every
   // setting derived (defaults.h, fill_derived), and the scale pilot's seconds.
   std::function<void(const Scene&, double)> announce;
+  // Called when the error model's plan (render/planner.h) sets the radius's
+  // scale: after the tuning passes, and when a later plan changes it, with
+  // the passes done, the plan and the radius it gives.
+  std::function<void(int, const Plan&, float)> planned;
 };
 
 struct DeviceStats {
@@ -64,6 +69,7 @@ struct RenderStats {
   double grid_seconds = 0.0;       // record grid builds and uploads
   double gather_seconds = 0.0;     // gather kernel and film download
   double probe_seconds = 0.0;      // the error probe's gathers (render/error_model.h)
+  float radius_scale = 1.0f;       // the plan's scale of the derived radii (render/planner.h)
   uint64_t camera_samples = 0;
   uint64_t sphere_tests = 0;       // volume records examined by the beam estimates
   std::vector<DeviceStats> devices;
@@ -130,6 +136,7 @@ class OrderedSum {
   int summed() const { return summed_; }  // passes 0 .. summed - 1 are in
   Image average(int width, int height) const;
   ErrorEstimate estimate() const { return model_ ? model_->estimate() : ErrorEstimate{}; }
+  ErrorTerms terms() const { return model_ ? model_->terms() : ErrorTerms{}; }
 
  private:
   std::vector<double> sum_;
@@ -148,10 +155,17 @@ struct PassSlice {
 // no particular order.
 using PassSink = std::function<void(int pass, PassImage&& image)>;
 
+// The error model's terms of the passes sunk so far; called under the lock
+// that serialises the sink's calls.
+using TermsSource = std::function<ErrorTerms()>;
+
 // Renders the passes of `slice` on every device of `devices` at once, the next
 // pass going to whichever device is free; stats.passes counts the passes done.
+// With `terms` (one process, an error model), the passes after the tuning
+// passes follow the model's plan (render/planner.h).
 RenderStats render_passes(const Scene& scene, const RenderSettings& settings, const std::vector<Device*>& devices,
-                          PassSlice slice, const PassSink& sink, Profiler* profiler = nullptr);
+                          PassSlice slice, const PassSink& sink, Profiler* profiler = nullptr,
+                          const TermsSource& terms = {});
 
 // Renders on every device of `devices` at once: the next pass goes to
 // whichever device is free, and passes are summed in pass order, so the image

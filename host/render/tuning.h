@@ -127,6 +127,29 @@ inline constexpr int kMaxProbeRows = 64;
 inline constexpr int kMinProbeRows = 8;
 inline constexpr double kProbeShare = 0.03;
 
+// The error model's plan (render/planner.h, docs/METHOD.md 15). The first
+// kTuningPasses passes render at the derived radius and give the model its
+// first terms (two: one per replicate, and two probes per value); a timed
+// render's next pass, at kCostScale of the radius, times how a pass's
+// stages grow with it (cornell_fog at 64x64: a sample's gather 0.12-0.18 s
+// at the derived radius, 0.05-0.06 s at half of it). Scales run from
+// 2^-kPlanOctavesDown to 2^kPlanOctavesUp of the derived radius in
+// kPlanStepsPerOctave steps an octave (the error moves with the sixth root
+// of the model's terms, so finer steps would chase their noise; at 10 s
+// cornell_fog's plans chose about 0.38, mirror_area's 3-4: its radius set
+// by hand to 4 times the derived 0.57 had relMSE 0.0027, at 0.57 0.021-0.027); a timed render on one device plans again after kReplanPasses
+// passes, twice that, and so on, from more probes (mirror_area at 10 s: a
+// plan from two passes alone chose a quarter of the radius in two runs of
+// five, and their error was 5-10 times the others'); a render to a target
+// error alone plans for kTargetHorizon times its passes so far.
+inline constexpr int kTuningPasses = 2;
+inline constexpr float kCostScale = 0.5f;
+inline constexpr int kPlanOctavesDown = 4;
+inline constexpr int kPlanOctavesUp = 2;
+inline constexpr int kPlanStepsPerOctave = 8;
+inline constexpr int kReplanPasses = 8;
+inline constexpr double kTargetHorizon = 16.0;
+
 // Edge of the surface map's point grid cells, in gather radii. A query
 // examines about (2 + kSurfaceCell)^2 r^2 of surface for the pi r^2 it uses
 // and reads the bounds of up to (2 / kSurfaceCell + 1)^2 rows of cells.
