@@ -7,6 +7,7 @@
 // noisy image).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -108,6 +109,24 @@ TEST(ErrorModel, ProbeNoiseIsNotBias) {
   EXPECT_LT(spm::test::mean_and_error(bias).mean, 1e-4);
 }
 
+// `term` of the terms of 40 models, seeds first_seed onwards.
+std::vector<double> terms_of(const Synthetic& c, uint32_t first_seed, double spm::ErrorTerms::*term) {
+  std::vector<double> out;
+  for (uint32_t s = 0; s < 40; ++s) {
+    const spm::ErrorTerms t = model_of(c, first_seed + s).terms();
+    EXPECT_TRUE(t.known);
+    out.push_back(t.*term);
+  }
+  return out;
+}
+
+// The weight the model gives a value, 1 / (mean^2 + 0.01): the mean is mu
+// plus B times the passes' mean r^2, about 0.8 over 8 or 9 passes.
+double weight_of(const Synthetic& c) {
+  const double mean = c.mu + c.bias * 0.8;
+  return 1.0 / (mean * mean + 0.01);
+}
+
 // The planner's terms (render/planner.h): the photon maps' variance times
 // r^2 from consecutive probes, whose means differ by the radius's shrinking
 // alone (small here, as in a render: bias 0.02).
@@ -116,14 +135,8 @@ TEST(ErrorModel, FindsThePhotonVariance) {
   c.bias = 0.02;
   c.photon_r2 = 0.003;
   c.passes = 8;
-  std::vector<double> photon;
-  for (uint32_t s = 0; s < 40; ++s) {
-    const spm::ErrorTerms t = model_of(c, 4000 + s).terms();
-    ASSERT_TRUE(t.known);
-    photon.push_back(t.photon_r2);
-  }
-  const double mean = c.mu + c.bias * 0.8, weight = 1.0 / (mean * mean + 0.01);
-  const spm::test::MeanAndError p = spm::test::mean_and_error(photon);
+  const double weight = weight_of(c);
+  const spm::test::MeanAndError p = spm::test::mean_and_error(terms_of(c, 4000, &spm::ErrorTerms::photon_r2));
   // The probes' differences also carry B r^3 (1 - s^2)'s change between
   // passes, under 1e-5 of photon_r2 here; the weight's mean varies by 2%.
   EXPECT_NEAR(p.mean, c.photon_r2 * weight, 4 * p.error + 0.03 * c.photon_r2 * weight);
@@ -140,18 +153,14 @@ TEST(ErrorModel, ThePlansBiasIsWhatTheProbesShow) {
   c.bias = 0.5;
   c.noise = 0.01;
   c.passes = 9;
-  std::vector<double> bias;
-  for (uint32_t s = 0; s < 40; ++s) bias.push_back(model_of(c, 5000 + s).terms().bias_per_r4);
-  const double mean = c.mu + c.bias * 0.8, weight = 1.0 / (mean * mean + 0.01);
-  const spm::test::MeanAndError b = spm::test::mean_and_error(bias);
-  const double truth = c.bias * c.bias * weight;
+  const spm::test::MeanAndError b = spm::test::mean_and_error(terms_of(c, 5000, &spm::ErrorTerms::bias_per_r4));
+  const double truth = c.bias * c.bias * weight_of(c);
   EXPECT_LT(b.mean, truth) << "it takes standard errors off, never adds them";
   EXPECT_GT(b.mean, 0.85 * truth) << "the seeds' own relative error " << b.error / truth;
   c = Synthetic{};
   c.bias = 0.0;
-  int zero = 0;
-  for (uint32_t s = 0; s < 40; ++s) zero += model_of(c, 6000 + s).terms().bias_per_r4 == 0.0;
-  EXPECT_GE(zero, 36);
+  const std::vector<double> none = terms_of(c, 6000, &spm::ErrorTerms::bias_per_r4);
+  EXPECT_GE(std::count(none.begin(), none.end(), 0.0), 36);
 }
 
 TEST(ErrorModel, UnknownUntilBothReplicatesHaveAPass) {
