@@ -202,12 +202,14 @@ int cmd_render(const RenderArgs& a) {
   const spm::Cluster& cluster = spm::Cluster::get();
   nlohmann::json used;  // the settings in use, derived ones included, for the profile
   if (cluster.root()) {
+    const std::string ranks =
+        cluster.size() > 1 ? " (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)" : "";
+    std::fprintf(stderr, "spm: rendering %s at %dx%d on %s%s\n", a.scene.c_str(), settings.width, settings.height,
+                 names.c_str(), ranks.c_str());
+    // After the tuning passes where the radius is planned (render.h).
     settings.announce = [&](const spm::Scene& resolved, double pilot_seconds) {
-      const std::string ranks =
-          cluster.size() > 1 ? " (rank 0 of " + std::to_string(cluster.size()) + " MPI ranks)" : "";
-      std::fprintf(stderr, "spm: rendering %s at %dx%d on %s%s\nspm: %s; caustic volume radius %.6g\n",
-                   a.scene.c_str(), settings.width, settings.height, names.c_str(), ranks.c_str(),
-                   spm::settings_line(resolved.integrator).c_str(), spm::derived_caustic_volume_radius(resolved));
+      std::fprintf(stderr, "spm: %s; caustic volume radius %.6g\n", spm::settings_line(resolved.integrator).c_str(),
+                   spm::derived_caustic_volume_radius(resolved));
       used = spm::settings_json(resolved.integrator);
       used["caustic_volume_radius"] = spm::derived_caustic_volume_radius(resolved);
       used["pilot_s"] = pilot_seconds;

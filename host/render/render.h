@@ -42,8 +42,10 @@ struct RenderSettings {
   bool error_probe = true;
   // Set by render() once the integrator's target_error is met: no new pass starts.
   const std::atomic<bool>* target_met = nullptr;
-  // Called once before the first pass with the scene as it renders, every
-  // setting derived (defaults.h, fill_derived), and the scale pilot's seconds.
+  // Called once with the scene as it renders, every setting derived
+  // (defaults.h, fill_derived), and the scale pilot's seconds: before the
+  // first pass, or where the radius is planned, after the tuning passes
+  // with the planned radii (render_passes).
   std::function<void(const Scene&, double)> announce;
   // Called when the error model's plan (render/planner.h) sets the radius's
   // scale: after the tuning passes, and when a later plan changes it, with
