@@ -166,6 +166,7 @@ struct DeviceLoop {
   // Means over the device's passes (the first left out: it also pays for
   // its kernels' first launches) and the longest parts, which predict a
   // balanced pass's length.
+  int measured = 0;  // passes in the means
   double photon_seconds = 0.0, gather_seconds = 0.0, samples = 0.0;
   double longest_rest = 0.0, longest_per_sample = 0.0;
 };
@@ -268,7 +269,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   // `done` on; passes 0: the seconds left in `budget`.
   const auto plan_inputs = [&](size_t d, int done, double left) {
     const DeviceLoop& l = loops[d];
-    const double passes = std::max(1, l.done - 1);
+    const double passes = std::max(1, l.measured);
     PlanInputs in;
     if (terms) {
       std::lock_guard<std::mutex> lock(mutex);
@@ -335,13 +336,16 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
         // 64x64 with a cold cache waited 1.06 s before a gather of 0.09 s),
         // which would starve later passes of samples, so the means and the
         // longest parts start again from the second pass.
-        if (l.done == 1) l.photon_seconds = l.gather_seconds = l.samples = 0.0;
-        if (l.done == 1) l.longest_rest = l.longest_per_sample = 0.0;
+        if (l.done == 1) {
+          l.measured = 0;
+          l.photon_seconds = l.gather_seconds = l.samples = l.longest_rest = l.longest_per_sample = 0.0;
+        }
+        ++l.measured;
         l.photon_seconds += out.propagate_seconds + out.grid_seconds + out.probe_seconds;
         l.gather_seconds += out.gather_seconds;
         l.samples += l.spp;
         if (balance) {
-          int next_spp = balanced_spp(l.photon_seconds / std::max(1, l.done),
+          int next_spp = balanced_spp(l.photon_seconds / l.measured,
                                       l.gather_seconds * l.spp / l.samples, l.spp, budget);
           // After the tuning passes the model plans the samples.
           if (planned && pass + 1 >= std::max(kTuningPasses, tuning + 1)) {
@@ -360,7 +364,7 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
               std::lock_guard<std::mutex> lock(mutex);
               in.terms = terms();
             }
-            in.spp = l.samples / std::max(1, l.done);
+            in.spp = l.samples / l.measured;
             in.done = passes;
             in.done_scale = scale;
             in.seconds = budget - l.elapsed;
