@@ -39,6 +39,11 @@ double ErrorModel::bias2(size_t i) const {
   return mb * mb - noise;
 }
 
+double ErrorModel::weight_of(size_t i) const {
+  const double mean = (sum_[0][i] + sum_[1][i]) / (passes_[0] + passes_[1]);
+  return 1.0 / (mean * mean + 0.01);
+}
+
 ErrorEstimate ErrorModel::estimate() const {
   ErrorEstimate e;
   for (int r = 0; r < kReplicates; ++r) e.passes += passes_[r];
@@ -49,8 +54,7 @@ ErrorEstimate ErrorModel::estimate() const {
   double bias = 0.0;
   size_t probed = 0;
   for (size_t i = 0; i < bias_.size(); ++i) {
-    const double a = sum_[0][i] / na, b = sum_[1][i] / nb, mean = (sum_[0][i] + sum_[1][i]) / n;
-    const double weight = 1.0 / (mean * mean + 0.01);
+    const double a = sum_[0][i] / na, b = sum_[1][i] / nb, weight = weight_of(i);
     // The image weighs the replicates' means by their passes; with each
     // mean's variance inversely proportional to its passes, E[(a - b)^2]
     // (1/na + 1/nb)^-1 is the variance of one pass's worth, and the image's
@@ -77,8 +81,7 @@ ErrorTerms ErrorModel::terms() const {
   for (size_t i = 0; i < bias_.size(); ++i) {
     const double m = probes_[i];
     if (m < 2) continue;
-    const double mean = (sum_[0][i] + sum_[1][i]) / n;
-    const double weight = 1.0 / (mean * mean + 0.01);
+    const double weight = weight_of(i);
     const double b = bias2(i) * weight;
     bias += b;
     bias_sq += b * b;

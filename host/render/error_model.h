@@ -83,6 +83,9 @@ class ErrorModel {
 
  private:
   double bias2(size_t value) const;  // B^2 of a value with two probes or more
+  // A value's weight in the relMSE, 1 / (mean^2 + 0.01), the passes' mean
+  // standing for the reference.
+  double weight_of(size_t value) const;
 
   std::vector<double> sum_[kReplicates];  // per value, the replicate's passes summed
   int passes_[kReplicates] = {};

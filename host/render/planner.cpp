@@ -39,12 +39,14 @@ Plan plan_passes(const PlanInputs& in) {
   const double bias = in.terms.bias_per_r4 * r2 * r2;
   const bool timed = in.passes <= 0;
   const int steps = kPlanStepsPerOctave;
-  for (int step = -kPlanOctavesDown * steps; step <= (timed ? kPlanOctavesUp * steps : 0); ++step) {
-    if (!in.choose_scale && step != 0) continue;
+  const int lowest = in.choose_scale ? -kPlanOctavesDown * steps : 0;
+  const int highest = in.choose_scale && timed ? kPlanOctavesUp * steps : 0;
+  const int fewest = in.choose_spp ? 1 : best.spp, most = in.choose_spp ? in.max_spp : best.spp;
+  for (int step = lowest; step <= highest; ++step) {
     const double s = std::exp2(step / double(steps)), s2 = s * s;
     const double fixed = cost_at(in.fixed_seconds, in.fixed_seconds_scaled, s);
     const double sample = cost_at(in.sample_seconds, in.sample_seconds_scaled, s);
-    for (int m = in.choose_spp ? 1 : best.spp; m <= (in.choose_spp ? in.max_spp : best.spp); ++m) {
+    for (int m = fewest; m <= most; ++m) {
       const double pass_seconds = fixed + m * sample;
       if (timed && m > 1 && pass_seconds > in.max_pass_seconds) break;
       const double future = timed ? in.seconds / std::max(pass_seconds, 1e-9) : double(in.passes - in.done);

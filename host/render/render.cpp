@@ -171,6 +171,12 @@ struct DeviceLoop {
   double longest_rest = 0.0, longest_per_sample = 0.0;
 };
 
+// kReplanPasses, twice that, four times, ...
+bool replans_after(int passes) {
+  const int k = passes / kReplanPasses;
+  return passes % kReplanPasses == 0 && k > 0 && (k & (k - 1)) == 0;
+}
+
 bool radius_derived(const IntegratorSettings& in) { return in.source("radius") == SettingSource::Derived; }
 
 // The scene's derived radii times `scale` (a plan's, render/planner.h):
@@ -267,14 +273,15 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
   const bool replans = timed && devices.size() == 1;
   // What a plan reads of device `d`'s passes so far, for the passes from
   // `done` on; passes 0: the seconds left in `budget`.
+  const auto model_terms = [&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return terms ? terms() : ErrorTerms{};
+  };
   const auto plan_inputs = [&](size_t d, int done, double left) {
     const DeviceLoop& l = loops[d];
     const double passes = std::max(1, l.measured);
     PlanInputs in;
-    if (terms) {
-      std::lock_guard<std::mutex> lock(mutex);
-      in.terms = terms();
-    }
+    in.terms = model_terms();
     in.radius = pass_radius(scene.integrator.radius, scene.integrator.alpha, done);
     in.spp = l.samples > 0.0 ? l.samples / passes : double(l.spp);
     in.done = done;
@@ -357,13 +364,9 @@ RenderStats render_passes(const Scene& scene_in, const RenderSettings& settings,
             if (plan.predicted >= 0.0) next_spp = plan.spp;
           }
           const int passes = pass + 1;
-          if (tunes && replans && passes >= kReplanPasses && passes % kReplanPasses == 0 &&
-              ((passes / kReplanPasses) & (passes / kReplanPasses - 1)) == 0) {
+          if (tunes && replans && replans_after(passes)) {
             PlanInputs in = tuned;
-            {
-              std::lock_guard<std::mutex> lock(mutex);
-              in.terms = terms();
-            }
+            in.terms = model_terms();
             in.spp = l.samples / l.measured;
             in.done = passes;
             in.done_scale = scale;
