@@ -99,7 +99,7 @@ TEST(FuzzRegressions, ObjLinesTheRendererDoesNotUseNeverReachTinyobjloader) {
   const std::string obj =
       "v 0 0 0\nv 1 0 0\nv 0 1 0\nvw 0 1e38 1\nt crease 99999999999/0/0\nl 1 2\np 7\nusemtl x\nf 1 2 3\n";
   try {
-    const ObjMesh mesh = parse_obj(obj, "extra.obj", true, "s.xml:1");
+    const Mesh mesh = parse_obj(obj, "extra.obj", true, "s.xml:1");
     EXPECT_EQ(mesh.triangles.size(), 1u);
     EXPECT_EQ(mesh.positions.size(), 3u);
   } catch (const InputError& e) {

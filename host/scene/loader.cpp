@@ -292,7 +292,7 @@ class Loader {
     } else if (type == "rectangle") {
       build_rectangle(shape, p, to_world);
     } else {
-      ObjMesh mesh;
+      Mesh mesh;
       if (type == "cube") {
         mesh = cube_mesh();
       } else {
@@ -376,7 +376,7 @@ class Loader {
     glm::vec3 du = glm::normalize(l[0]), dv = glm::normalize(l[1]);
     if (std::abs(glm::dot(du, dv)) > 1e-4f)
       p.fail("to_world", "to_world of a rectangle contains shear (Mitsuba refuses it too)");
-    ObjMesh mesh;
+    Mesh mesh;
     mesh.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
     mesh.triangles = {{0, 1, 2}, {2, 3, 0}};
     if (glm::determinant(l) < 0.0f)
@@ -385,8 +385,8 @@ class Loader {
   }
 
   // [-1,1]^3 with outward winding (cross(p1 - p0, p2 - p0) points out), flat.
-  static ObjMesh cube_mesh() {
-    ObjMesh mesh;
+  static Mesh cube_mesh() {
+    Mesh mesh;
     for (int axis = 0; axis < 3; ++axis) {
       for (float side : {-1.0f, 1.0f}) {
         glm::vec3 n(0.0f), u(0.0f);
@@ -404,7 +404,7 @@ class Loader {
 
   // Positions by to_world, normals by its inverse transpose; then zero-area
   // triangles are dropped (they have no normal to shade or to orient media).
-  void to_world_mesh(Shape& shape, ObjMesh mesh, const glm::mat4& to_world) {
+  void to_world_mesh(Shape& shape, Mesh mesh, const glm::mat4& to_world) {
     glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(to_world)));
     for (glm::vec3& pos : mesh.positions) {
       pos = glm::vec3(to_world * glm::vec4(pos, 1.0f));

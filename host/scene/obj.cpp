@@ -192,7 +192,7 @@ class ObjChecker {
 
 }  // namespace
 
-ObjMesh parse_obj(const std::string& text, const std::string& name, bool vertex_normals, const std::string& where) {
+Mesh parse_obj(const std::string& text, const std::string& name, bool vertex_normals, const std::string& where) {
   auto fail = [&](const std::string& problem) -> void { throw InputError(where, "OBJ file " + name + ": " + problem); };
   ObjChecker checker(text, [&](size_t line, const std::string& problem) {
     throw InputError(where, "OBJ file " + name + ":" + std::to_string(line) + ": " + problem);
@@ -224,7 +224,7 @@ ObjMesh parse_obj(const std::string& text, const std::string& name, bool vertex_
   if (corners_with_normal != 0 && corners_with_normal != corners) fail("vertex normals on some faces only");
   const bool use_normals = vertex_normals && corners_with_normal == corners;
 
-  ObjMesh mesh;
+  Mesh mesh;
   std::unordered_map<uint64_t, uint32_t> vertex_of;  // (position, normal) index pair -> mesh vertex
   auto vertex = [&](const tinyobj::index_t& idx) -> uint32_t {
     if (idx.vertex_index < 0 || static_cast<size_t>(idx.vertex_index) >= num_positions)

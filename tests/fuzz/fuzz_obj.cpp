@@ -18,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   for (bool vertex_normals : {true, false}) {
     try {
-      const spm::ObjMesh mesh = spm::parse_obj(text, "fuzz.obj", vertex_normals, "fuzz.xml:1");
+      const spm::Mesh mesh = spm::parse_obj(text, "fuzz.obj", vertex_normals, "fuzz.xml:1");
       // What the loader relies on: every index in range, normals per vertex or none.
       for (const auto& t : mesh.triangles)
         if (t.x >= mesh.positions.size() || t.y >= mesh.positions.size() || t.z >= mesh.positions.size()) std::abort();
