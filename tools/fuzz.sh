@@ -5,7 +5,8 @@
 #   tools/fuzz.sh [SECONDS] [TARGET]
 #
 # SECONDS (default 60) of fuzz_scene (the XML loader, default), fuzz_obj
-# (the OBJ reader) or fuzz_vol (the .vol reader). Configures and builds
+# (the OBJ reader), fuzz_ply (the PLY reader), fuzz_serialized (the reader of
+# Mitsuba's serialized meshes) or fuzz_vol (the .vol reader). Configures and builds
 # build-fuzz/ (SPM_FUZZ_BUILD_DIR overrides it), seeds a corpus from the
 # target's files in scenes/ and tests/data (a copy: the source tree is never
 # written), and keeps what the fuzzer finds in
@@ -14,7 +15,7 @@
 # exception other than spm::InputError) and saves the input that caused it
 # under build-fuzz/findings/. The fuzzer's output is in build-fuzz/fuzz-TARGET.log.
 #
-# A long run: tools/fuzz.sh 3600 fuzz_scene && tools/fuzz.sh 3600 fuzz_obj && tools/fuzz.sh 3600 fuzz_vol
+# A long run: for t in fuzz_scene fuzz_obj fuzz_ply fuzz_serialized fuzz_vol; do tools/fuzz.sh 3600 $t; done
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -26,11 +27,16 @@ fail() {
 seconds="${1:-60}"
 target="${2:-fuzz_scene}"
 [[ "$seconds" =~ ^[0-9]+$ && "$seconds" -gt 0 ]] || fail "SECONDS must be a positive whole number, got '$seconds'"
+# The shipped scenes' meshes (scenes/meshes/, the bunny: 1.3 MB) are no seeds:
+# an input that large makes every run slow; tests/data holds small ones.
+seed_dirs="scenes tests/data"
 case "$target" in
   fuzz_scene) pattern='*.xml' dict=tests/fuzz/scene.dict ;;
   fuzz_obj) pattern='*.obj' dict=tests/fuzz/obj.dict ;;
+  fuzz_ply) pattern='*.ply' dict=tests/fuzz/ply.dict seed_dirs=tests/data ;;
+  fuzz_serialized) pattern='*.serialized' dict=tests/fuzz/serialized.dict ;;
   fuzz_vol) pattern='*.vol' dict=tests/fuzz/vol.dict ;;
-  *) fail "unknown target '$target' (fuzz_scene, fuzz_obj or fuzz_vol)" ;;
+  *) fail "unknown target '$target' (fuzz_scene, fuzz_obj, fuzz_ply, fuzz_serialized or fuzz_vol)" ;;
 esac
 build="${SPM_FUZZ_BUILD_DIR:-build-fuzz}"
 
@@ -53,7 +59,7 @@ findings="$build/findings"
 rm -rf "$seeds"
 mkdir -p "$seeds" "$corpus" "$findings"
 # (tests/data/fuzz holds the inputs of earlier findings, regression tests now.)
-find scenes tests/data -type f -name "$pattern" -exec cp -t "$seeds" {} +
+find $seed_dirs -type f -name "$pattern" -exec cp -t "$seeds" {} +
 [ -n "$(ls -A "$seeds")" ] || fail "no seed files ($pattern) found"
 
 log="$build/fuzz-$target.log"

@@ -8,7 +8,7 @@ packages=(
   ocl-icd-libopencl1 ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers
   pocl-opencl-icd clinfo oclgrind valgrind
   libopenexr-dev libglm-dev librandom123-dev libpugixml-dev libtinyobjloader-dev
-  libcli11-dev nlohmann-json3-dev libstb-dev
+  libcli11-dev nlohmann-json3-dev libstb-dev zlib1g-dev
   # FindOpenVDB.cmake also asks for Boost.Iostreams, which libopenvdb-dev does not pull in.
   libopenvdb-dev libboost-iostreams-dev
   libgtest-dev libgmock-dev libbenchmark-dev
