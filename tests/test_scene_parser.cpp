@@ -39,6 +39,14 @@ Scene load_in_data(const std::string& body) {
   return s;
 }
 
+// Loads a scene file, its warnings (e.g. of degenerate triangles) kept quiet.
+Scene load_in_data_file(const std::string& path) {
+  testing::internal::CaptureStderr();
+  Scene s = load_scene(path);
+  testing::internal::GetCapturedStderr();
+  return s;
+}
+
 using spm::test::marked_line;
 
 // The message of the InputError that loading `text` throws ("" if none).
@@ -221,7 +229,7 @@ oops <!--here-->
 
 TEST(SceneParser, RefusesUnknownPluginType) {
   expect_error("<bsdf type=\"plastic\"/> <!--here-->", "unsupported bsdf type 'plastic'");
-  expect_error("<shape type=\"disk\"/> <!--here-->", "unsupported shape type 'disk'");
+  expect_error("<shape type=\"bsplinecurve\"/> <!--here-->", "unsupported shape type 'bsplinecurve'");
   expect_error("<emitter type=\"envmap\"/> <!--here-->", "unsupported emitter type 'envmap'");
   expect_error("<medium type=\"nanovdb\"/> <!--here-->", "unsupported medium type");
   expect_error("<sensor type=\"thinlens\"/> <!--here-->", "unsupported sensor type");
@@ -595,7 +603,36 @@ TEST(SceneParser, FlipNormals) {
   EXPECT_FALSE(s.shapes.at(1).flip_normals);
 }
 
-TEST(SceneParser, RefusesPly) { expect_error("<shape type=\"ply\"/> <!--here-->", "'ply' is not supported"); }
+// The readers' own tests (test_ply.cpp, test_serialized.cpp) check the files;
+// these check that the loader finds, places and refuses them.
+TEST(SceneParser, PlyAndSerializedMeshesLoad) {
+  Scene s = load_in_data(R"(<shape type="ply"><string name="filename" value="../ply/quad_binary_le.ply"/>
+<transform name="to_world"><translate z="2"/></transform></shape>
+<shape type="serialized"><string name="filename" value="../serialized/two_shapes.serialized"/>
+<integer name="shape_index" value="1"/></shape>
+<shape type="serialized"><string name="filename" value="../serialized/two_shapes.serialized"/></shape>)");
+  ASSERT_EQ(s.shapes.size(), 3u);
+  EXPECT_EQ(s.shapes[0].triangles.size(), 3u);  // a quad and a triangle
+  EXPECT_FLOAT_EQ(s.shapes[0].positions.at(0).z, 2.0f);
+  EXPECT_EQ(s.shapes[1].triangles.size(), 2u);  // the quad, which has no normals: smooth ones, all +z
+  ASSERT_EQ(s.shapes[1].normals.size(), 4u);
+  for (const glm::vec3& n : s.shapes[1].normals) expect_vec3(n, {0, 0, 1});
+  EXPECT_EQ(s.shapes[2].triangles.size(), 4u);  // the tetrahedron
+}
+
+TEST(SceneParser, RefusesBadMeshFiles) {
+  expect_error(R"(<shape type="ply"> <!--here-->
+<string name="filename" value="nothing.ply"/></shape>)",
+               "PLY file", {}, kData + "/inline.xml");
+  expect_error(R"(<shape type="ply"> <!--here-->
+<string name="filename" value="quad.obj"/></shape>)",
+               "quad.obj", {}, kData + "/inline.xml");
+  expect_error(R"(<shape type="serialized"> <!--here-->
+<string name="filename" value="../serialized/two_shapes.serialized"/>
+<integer name="shape_index" value="2"/></shape>)",
+               "shape", {}, kData + "/inline.xml");
+  expect_error(R"(<shape type="serialized"/> <!--here-->)", "needs a 'filename'");
+}
 
 // ---- OBJ -----------------------------------------------------------------------
 
@@ -625,6 +662,86 @@ TEST(SceneParser, ObjFaceNormalsDropsVertexNormals) {
 </shape>)");
   EXPECT_TRUE(s.shapes.at(0).normals.empty());
   EXPECT_EQ(s.shapes.at(0).triangles.size(), 2u);
+}
+
+// Mitsuba 3 computes smooth normals for a mesh file without any: each face
+// normal weighted by the face's angle at the vertex. tent.obj is two faces
+// meeting at a right angle along the x axis, normals +y and +z. On the ridge,
+// vertex 0 has angle pi/2 in both; vertex 1 has pi/4 in the first and
+// atan(2) in the second (weights by area, 1:2, or none would differ); the
+// other two lie in one face only.
+TEST(SceneParser, MeshWithoutNormalsGetsMitsubasSmoothNormals) {
+  Scene s = load_in_data(R"(<shape type="obj"><string name="filename" value="tent.obj"/></shape>)");
+  const Shape& m = s.shapes.at(0);
+  ASSERT_EQ(m.normals.size(), 4u);
+  const float pi = 3.14159265f;
+  auto blend = [&](float wy, float wz) { return glm::normalize(glm::vec3(0.0f, wy, wz)); };
+  // The OBJ reader numbers vertices its own way: find each by its position.
+  auto normal_at = [&](const glm::vec3& p) {
+    for (size_t i = 0; i < m.positions.size(); ++i)
+      if (m.positions[i] == p) return m.normals[i];
+    ADD_FAILURE() << "no vertex at " << p.x << " " << p.y << " " << p.z;
+    return glm::vec3(0.0f);
+  };
+  expect_vec3(normal_at({0, 0, 0}), blend(pi / 2, pi / 2));
+  expect_vec3(normal_at({1, 0, 0}), blend(pi / 4, std::atan(2.0f)));
+  expect_vec3(normal_at({0, 0, -1}), {0, 1, 0});
+  expect_vec3(normal_at({0, 2, 0}), {0, 0, 1});
+  Scene flat = load_in_data(R"(<shape type="obj"><string name="filename" value="tent.obj"/>
+<boolean name="face_normals" value="true"/></shape>)");
+  EXPECT_TRUE(flat.shapes.at(0).normals.empty());
+}
+
+// Mitsuba's disk (the unit disk in XY, normal +z) and cylinder (an open tube,
+// normals outward): meshes whose area, outline and normals are the shapes'.
+TEST(SceneParser, DiskAndCylinderAreTheAnalyticShapes) {
+  Scene s = load(R"(<shape type="disk"><transform name="to_world"><scale value="2"/><translate z="1"/></transform>
+</shape>
+<shape type="cylinder"><point name="p0" x="0" y="0" z="-1"/><point name="p1" x="0" y="0" z="3"/>
+<float name="radius" value="0.5"/></shape>
+<shape type="disk"><transform name="to_world"><scale x="-1"/></transform></shape>)");
+  ASSERT_EQ(s.shapes.size(), 3u);
+  auto area = [](const Shape& m) {
+    double a = 0.0;
+    for (const glm::uvec3& t : m.triangles)
+      a += 0.5 * glm::length(glm::cross(glm::dvec3(m.positions[t.y] - m.positions[t.x]),
+                                        glm::dvec3(m.positions[t.z] - m.positions[t.x])));
+    return a;
+  };
+  const double pi = 3.14159265358979;
+  const Shape& disk = s.shapes[0];
+  EXPECT_NEAR(area(disk), pi * 4.0, 3e-5 * pi * 4.0);
+  for (const glm::vec3& p : disk.positions) {
+    EXPECT_FLOAT_EQ(p.z, 1.0f);
+    EXPECT_LE(glm::length(glm::vec2(p)), 2.0f * (1.0f + 1e-6f));
+  }
+  for (size_t t = 0; t < disk.triangles.size(); t += 97) expect_vec3(face_normal(disk, t), {0, 0, 1});
+  // A mirroring to_world keeps the normal to_world(+z) as a normal, as for the rectangle.
+  for (size_t t = 0; t < s.shapes[2].triangles.size(); t += 97) expect_vec3(face_normal(s.shapes[2], t), {0, 0, 1});
+  const Shape& tube = s.shapes[1];
+  EXPECT_NEAR(area(tube), 2.0 * pi * 0.5 * 4.0, 3e-5 * 2.0 * pi * 0.5 * 4.0);
+  ASSERT_EQ(tube.normals.size(), tube.positions.size());
+  for (size_t i = 0; i < tube.positions.size(); ++i) {
+    const glm::vec3 radial(tube.positions[i].x, tube.positions[i].y, 0.0f);
+    EXPECT_NEAR(glm::length(radial), 0.5f, 1e-6f);
+    expect_vec3(tube.normals[i], radial / 0.5f);
+  }
+  for (size_t t = 0; t < tube.triangles.size(); t += 97) {
+    const glm::vec3 c = (tube.positions[tube.triangles[t].x] + tube.positions[tube.triangles[t].y] +
+                         tube.positions[tube.triangles[t].z]) / 3.0f;
+    EXPECT_GT(glm::dot(face_normal(tube, t), glm::vec3(c.x, c.y, 0.0f)), 0.0f) << "triangle " << t << " faces in";
+  }
+}
+
+TEST(SceneParser, RefusesBadCylinders) {
+  expect_error(R"(<shape type="cylinder">
+<float name="radius" value="0"/> <!--here-->
+</shape>)",
+               "cylinder radius must be positive");
+  expect_error(R"(<shape type="cylinder">
+<point name="p1" x="0" y="0" z="0"/> <!--here-->
+</shape>)",
+               "p0 and p1 are the same point");
 }
 
 TEST(SceneParser, NormalsUseInverseTransposeUnderNonUniformScale) {
@@ -1082,6 +1199,30 @@ TEST(SceneParser, OtherIntegratorIsIgnoredUnchecked) {
   EXPECT_EQ(s.integrator.integrator_type, "spm");
 }
 
+// moment and aov only add outputs: the integrator they wrap is read.
+TEST(SceneParser, WrapperIntegratorsAreReadAsTheOneTheyWrap) {
+  Scene moment = load(R"(<integrator type="moment">
+<integrator type="volpath"><integer name="max_depth" value="3"/></integrator>
+</integrator>)");
+  EXPECT_EQ(moment.integrator.integrator_type, "volpath");
+  EXPECT_EQ(moment.integrator.max_depth, 3);
+  Scene aov = load(R"(<integrator type="aov"><string name="aovs" value="dd.y:depth,nn:sh_normal"/>
+<integrator type="path"><integer name="max_depth" value="5"/></integrator>
+</integrator>)");
+  EXPECT_EQ(aov.integrator.integrator_type, "path");
+  EXPECT_EQ(aov.integrator.max_depth, 5);
+  Scene bare = load(R"(<integrator type="aov"><string name="aovs" value="dd.y:depth"/></integrator>)");
+  EXPECT_EQ(bare.integrator.max_depth, -1);
+  expect_error(R"(<integrator type="moment">
+<bsdf type="diffuse"/> <!--here-->
+</integrator>)",
+               "<bsdf> is not allowed in integrator 'moment'");
+  expect_error(R"(<integrator type="moment"><integrator type="path">
+<integer name="rr_depth" value="0"/> <!--here-->
+</integrator></integrator>)",
+               "rr_depth must be at least 1");
+}
+
 // Mitsuba's path tracers are read: their depths, checked like spm's own.
 TEST(SceneParser, PathTracerIntegratorsGiveTheirDepths) {
   Scene s = load(R"(<integrator type="volpath"><integer name="max_depth" value="7"/></integrator>)");
@@ -1145,6 +1286,18 @@ TEST(SceneParser, LoadsFileWithInclude) {
   EXPECT_EQ(s.shapes[1].material, 0);
   expect_vec3(s.materials[0].reflectance, {0.8f, 0.1f, 0.1f});
   expect_vec3(brighter.lights.at(0).radiance, glm::vec3(9.0f));
+}
+
+// search/scene.xml's comment says what Mitsuba 3.9.1 finds (checked with it).
+TEST(SceneParser, FindsFilesAsMitsubaDoes) {
+  Scene s = load_in_data_file(kData + "/search/scene.xml");
+  ASSERT_EQ(s.shapes.size(), 2u);
+  for (const Shape& m : s.shapes) EXPECT_EQ(m.triangles.size(), 2u) << m.where << " read the decoy";
+  ASSERT_EQ(s.lights.size(), 1u);
+  expect_vec3(s.lights[0].intensity, glm::vec3(3.0f));
+  EXPECT_EQ(s.lights[0].where, kData + "/search/include/lights.xml:2");
+  expect_error(R"(<path value="nowhere"/> <!--here-->)", "<path> folder", {}, kData + "/inline.xml");
+  expect_error(R"(<path value="quad.obj"/> <!--here-->)", "does not exist", {}, kData + "/inline.xml");
 }
 
 TEST(SceneParser, RefusesIncludeProblems) {

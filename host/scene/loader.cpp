@@ -11,7 +11,10 @@
 #include "scene/settings.h"
 #include "scene/light_power.h"
 #include "scene/media_regions.h"
+#include "scene/mesh.h"
 #include "scene/obj.h"
+#include "scene/ply.h"
+#include "scene/serialized.h"
 #include "scene/xml_context.h"
 #include "scene/xml_props.h"
 #include "scene/xml_transform.h"
@@ -68,6 +71,10 @@ class Loader {
         ctx_.define_default(node);
       else if (tag == "include")
         parse_include(node);
+      else if (tag == "path") {
+        no_content(node);
+        ctx_.add_search_path(node);
+      }
       else if (tag == "sensor")
         parse_sensor(node);
       else if (tag == "shape")
@@ -85,11 +92,13 @@ class Loader {
     }
   }
 
-  // The children of an included <scene> are read as if they were written here.
+  // The children of an included <scene> are read as if they were written
+  // here. Its name is resolved against the including file's folder, then the
+  // search path; the file names inside it by the search path alone.
   void parse_include(const pugi::xml_node& node) {
     ctx_.check_attributes(node, {"filename"});
     no_content(node);
-    std::string path = ctx_.resolve(ctx_.attr(node, "filename"));
+    std::string path = ctx_.resolve_include(ctx_.attr(node, "filename"));
     if (ctx_.is_open(path)) ctx_.fail(node, "<include> of '" + path + "' includes itself");
     std::string text = xml::read_text_file(path, ctx_.where(node), "included file");
     pugi::xml_node root = ctx_.push_source(text, path);
@@ -272,9 +281,11 @@ class Loader {
 
   void parse_shape(const pugi::xml_node& node) {
     std::string type = object_type(node);
-    if (type == "ply") ctx_.fail(node, "shape type 'ply' is not supported; convert the mesh to OBJ");
-    if (type != "rectangle" && type != "cube" && type != "sphere" && type != "obj")
-      ctx_.fail(node, "unsupported shape type '" + type + "' (rectangle, cube, sphere, obj)");
+    static const std::set<std::string> kShapes = {"rectangle", "cube", "sphere", "disk", "cylinder",
+                                                  "obj", "ply", "serialized"};
+    if (!kShapes.count(type))
+      ctx_.fail(node, "unsupported shape type '" + type +
+                          "' (rectangle, cube, sphere, disk, cylinder, obj, ply, serialized)");
     Props p(ctx_, node, "shape '" + type + "'");
     Shape shape;
     shape.where = ctx_.where(node);
@@ -289,21 +300,29 @@ class Loader {
 
     if (type == "sphere") {
       build_sphere(shape, p, to_world);
-    } else if (type == "rectangle") {
-      build_rectangle(shape, p, to_world);
+    } else if (type == "rectangle" || type == "disk") {
+      build_flat(shape, p, to_world, type == "disk" ? disk_mesh() : rectangle_mesh());
+    } else if (type == "cube") {
+      to_world_mesh(shape, cube_mesh(), to_world);
+    } else if (type == "cylinder") {
+      to_world_mesh(shape, cylinder_mesh(p), to_world);
     } else {
+      std::optional<std::string> filename = p.get_string("filename");
+      if (!filename) ctx_.fail(node, p.what() + " needs a 'filename' property");
+      bool vertex_normals = !p.get_bool("face_normals").value_or(false);
+      std::string path = ctx_.resolve(*filename);
       Mesh mesh;
-      if (type == "cube") {
-        mesh = cube_mesh();
+      if (type == "obj") {
+        mesh = parse_obj(xml::read_text_file(path, shape.where, "OBJ file"), path, vertex_normals, shape.where);
+      } else if (type == "ply") {
+        mesh = parse_ply(xml::read_text_file(path, shape.where, "PLY file"), path, vertex_normals, shape.where);
       } else {
-        std::optional<std::string> filename = p.get_string("filename");
-        if (!filename) ctx_.fail(node, p.what() + " needs a 'filename' property");
-        bool vertex_normals = !p.get_bool("face_normals").value_or(false);
-        std::string path = ctx_.resolve(*filename);
-        std::string text = xml::read_text_file(path, shape.where, "OBJ file");
-        mesh = parse_obj(text, path, vertex_normals, shape.where);
+        int index = p.get_int("shape_index").value_or(0);
+        mesh = parse_serialized(xml::read_text_file(path, shape.where, "serialized mesh file"), path, index,
+                                vertex_normals, shape.where);
       }
-      to_world_mesh(shape, std::move(mesh), to_world);
+      // Mitsuba gives a mesh without normals smooth ones, unless face_normals.
+      to_world_mesh(shape, std::move(mesh), to_world, vertex_normals);
     }
     p.finish();
 
@@ -368,20 +387,70 @@ class Loader {
     shape.radius = radius * std::sqrt(s2);
   }
 
-  // Mitsuba's rectangle is analytic with normal to_world(+z) transformed as a
-  // normal, whatever the handedness of to_world; meshes (cube, obj) instead
-  // keep their winding. So a mirroring to_world flips the rectangle's winding.
-  void build_rectangle(Shape& shape, Props& p, const glm::mat4& to_world) {
+  // Mitsuba's rectangle and disk are analytic with normal to_world(+z)
+  // transformed as a normal, whatever the handedness of to_world; meshes
+  // (cube, obj) instead keep their winding. So a mirroring to_world flips the
+  // flat shapes' winding.
+  void build_flat(Shape& shape, Props& p, const glm::mat4& to_world, Mesh mesh) {
     glm::mat3 l(to_world);
     glm::vec3 du = glm::normalize(l[0]), dv = glm::normalize(l[1]);
     if (std::abs(glm::dot(du, dv)) > 1e-4f)
-      p.fail("to_world", "to_world of a rectangle contains shear (Mitsuba refuses it too)");
-    Mesh mesh;
-    mesh.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
-    mesh.triangles = {{0, 1, 2}, {2, 3, 0}};
+      p.fail("to_world", "to_world of a " + p.what() + " contains shear (Mitsuba refuses it too)");
     if (glm::determinant(l) < 0.0f)
       for (glm::uvec3& t : mesh.triangles) std::swap(t.y, t.z);
     to_world_mesh(shape, std::move(mesh), to_world);
+  }
+
+  // [-1,1]^2 in the XY plane, normal +z.
+  static Mesh rectangle_mesh() {
+    Mesh mesh;
+    mesh.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+    mesh.triangles = {{0, 1, 2}, {2, 3, 0}};
+    return mesh;
+  }
+
+  // Mitsuba's disk and cylinder are analytic; spm makes them meshes of
+  // kRoundSegments sides. The polygon's area is short of the circle's by
+  // (2 pi / n)^2 / 6 = 2.5e-5 of it, and its outline lies within 1 - cos(pi / n)
+  // = 1.9e-5 radii of the circle: below what a render can see.
+  static constexpr unsigned kRoundSegments = 512;
+
+  // The unit disk in the XY plane, normal +z: a fan around its centre.
+  static Mesh disk_mesh() {
+    Mesh mesh;
+    mesh.positions.push_back({0, 0, 0});
+    for (unsigned i = 0; i < kRoundSegments; ++i) {
+      const double phi = 2.0 * M_PI * i / kRoundSegments;
+      mesh.positions.push_back({float(std::cos(phi)), float(std::sin(phi)), 0.0f});
+      mesh.triangles.push_back({0, 1 + i, 1 + (i + 1) % kRoundSegments});
+    }
+    return mesh;
+  }
+
+  // Mitsuba's cylinder: the open tube of `radius` from p0 to p1 (default the
+  // unit one along +z), normals outward; the vertex normals are the tube's.
+  static Mesh cylinder_mesh(Props& p) {
+    glm::vec3 p0 = p.get_point("p0").value_or(glm::vec3(0.0f));
+    glm::vec3 p1 = p.get_point("p1").value_or(glm::vec3(0.0f, 0.0f, 1.0f));
+    float radius = p.get_float("radius").value_or(1.0f);
+    if (!(radius > 0.0f)) p.fail("radius", "cylinder radius must be positive");
+    glm::vec3 axis = p1 - p0;
+    if (!(glm::length(axis) > 0.0f)) p.fail("p1", "cylinder p0 and p1 are the same point");
+    glm::vec3 w = glm::normalize(axis);
+    glm::vec3 u = glm::normalize(glm::cross(std::abs(w.x) > 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0), w));
+    glm::vec3 v = glm::cross(w, u);
+    Mesh mesh;
+    for (unsigned i = 0; i < kRoundSegments; ++i) {
+      const double phi = 2.0 * M_PI * i / kRoundSegments;
+      glm::vec3 n = float(std::cos(phi)) * u + float(std::sin(phi)) * v;
+      mesh.positions.insert(mesh.positions.end(), {p0 + radius * n, p1 + radius * n});
+      mesh.normals.insert(mesh.normals.end(), {n, n});
+      const unsigned a = 2 * i, b = 2 * ((i + 1) % kRoundSegments);
+      // Counter-clockwise seen from outside: cross(edge around, edge along) points out.
+      mesh.triangles.push_back({a, b, b + 1});
+      mesh.triangles.push_back({a, b + 1, a + 1});
+    }
+    return mesh;
   }
 
   // [-1,1]^3 with outward winding (cross(p1 - p0, p2 - p0) points out), flat.
@@ -404,7 +473,9 @@ class Loader {
 
   // Positions by to_world, normals by its inverse transpose; then zero-area
   // triangles are dropped (they have no normal to shade or to orient media).
-  void to_world_mesh(Shape& shape, Mesh mesh, const glm::mat4& to_world) {
+  // `smooth` gives a mesh without normals Mitsuba's smooth ones, from its
+  // world-space triangles.
+  void to_world_mesh(Shape& shape, Mesh mesh, const glm::mat4& to_world, bool smooth = false) {
     glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(to_world)));
     for (glm::vec3& pos : mesh.positions) {
       pos = glm::vec3(to_world * glm::vec4(pos, 1.0f));
@@ -432,6 +503,7 @@ class Loader {
       shape.triangles.push_back(t);
     }
     if (shape.triangles.empty()) throw InputError(shape.where, "mesh has no triangles of non-zero area");
+    if (smooth && mesh.normals.empty()) mesh.normals = angle_weighted_normals(mesh.positions, shape.triangles);
     if (dropped > 0)
       std::cerr << shape.where << ": warning: dropped " << dropped << " degenerate (zero-area) triangle"
                 << (dropped == 1 ? "" : "s") << " of the shape\n";
@@ -757,6 +829,10 @@ class Loader {
     std::string type = object_type(node);
     if (have_integrator_) ctx_.fail(node, "a second <integrator> (only one per scene)");
     have_integrator_ = true;
+    if (type == "moment" || type == "aov") {
+      parse_wrapper_integrator(node, type);
+      return;
+    }
     if (type == "volpath" || type == "volpathmis" || type == "path") {
       parse_path_integrator(node, type);
       return;
@@ -770,6 +846,27 @@ class Loader {
     p.finish();
     no_objects(p);
     register_id(node, -1);
+  }
+
+  // Mitsuba's moment and aov integrators only add outputs (the moments or
+  // the AOVs of what they wrap): the image is that of the integrator nested
+  // in them, the first when moment holds several. An aov without one renders
+  // no radiance in Mitsuba; spm renders its own then.
+  void parse_wrapper_integrator(const pugi::xml_node& node, const std::string& type) {
+    Props p(ctx_, node, "integrator '" + type + "'");
+    if (type == "aov") p.get_string("aovs");
+    p.finish();
+    for (const pugi::xml_node& child : p.objects())
+      if (std::string(child.name()) != "integrator")
+        ctx_.fail(child, "<" + std::string(child.name()) + "> is not allowed in " + p.what());
+    register_id(node, -1);
+    if (p.objects().empty()) return;
+    const pugi::xml_node& inner = p.objects().front();
+    if (p.objects().size() > 1)
+      std::cerr << ctx_.where(node) << ": warning: " << p.what() << " wraps " << p.objects().size()
+                << " integrators; spm renders the first (" << ctx_.where(inner) << ")\n";
+    have_integrator_ = false;
+    parse_integrator(inner);
   }
 
   void parse_path_integrator(const pugi::xml_node& node, const std::string& type) {

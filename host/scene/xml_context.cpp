@@ -53,6 +53,7 @@ pugi::xml_node Context::push_source(const std::string& text, const std::string& 
     throw InputError(name + ":" + std::to_string(src->line_of(result.offset)),
                      std::string("malformed XML: ") + result.description());
   }
+  if (sources_.empty()) search_path_ = {src->dir, fs::current_path().string()};
   sources_.push_back(std::move(src));
 
   // pugixml reports a document without elements as a parse error, so there is a root.
@@ -76,8 +77,35 @@ pugi::xml_node Context::push_source(const std::string& text, const std::string& 
 
 void Context::pop_source() { sources_.pop_back(); }
 
-std::string Context::resolve(const std::string& relative) const {
-  return (fs::path(current().dir) / relative).string();
+std::string Context::resolve(const std::string& name) const {
+  if (fs::path(name).is_absolute()) return name;
+  std::error_code ec;
+  for (const std::string& base : search_path_) {
+    fs::path candidate = fs::path(base) / name;
+    if (fs::exists(candidate, ec)) return candidate.string();
+  }
+  return (fs::path(sources_.front()->dir) / name).string();
+}
+
+std::string Context::resolve_include(const std::string& name) const {
+  std::error_code ec;
+  fs::path beside = fs::path(current().dir) / name;
+  if (fs::path(name).is_relative() && fs::exists(beside, ec)) return beside.string();
+  return resolve(name);
+}
+
+void Context::add_search_path(const pugi::xml_node& node) {
+  check_attributes(node, {"value"});
+  const std::string value = attr(node, "value");
+  if (value.empty()) fail(node, "<path> needs a folder in 'value'");
+  std::error_code ec;
+  fs::path folder = value;
+  if (folder.is_relative()) {
+    folder = fs::path(current().dir) / value;
+    if (!fs::exists(folder, ec)) folder = resolve(value);
+  }
+  if (!fs::is_directory(folder, ec)) fail(node, "<path> folder '" + folder.string() + "' does not exist");
+  search_path_.insert(search_path_.begin(), folder.string());
 }
 
 bool Context::is_open(const std::string& name) const {

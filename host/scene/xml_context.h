@@ -25,8 +25,20 @@ class Context {
   // pop_source(); returns its <scene> root, version checked.
   pugi::xml_node push_source(const std::string& text, const std::string& name);
   void pop_source();
-  // A path relative to the current file's directory, resolved.
-  std::string resolve(const std::string& relative) const;
+  // A file name resolved as Mitsuba 3 (3.9) resolves a plugin's file: an
+  // absolute name as it is; a relative one against each folder of the search
+  // path in turn (the <path> folders, latest first, then the top-level scene
+  // file's folder, then the working directory), the first that exists. Not
+  // against an included file's folder: Mitsuba resolves plugin files after
+  // parsing, with the search path alone. When none exists: against the scene
+  // file's folder, for the caller's message.
+  std::string resolve(const std::string& name) const;
+  // An <include>'s file: the including file's folder first, then the search
+  // path, as Mitsuba 3.9's parser does.
+  std::string resolve_include(const std::string& name) const;
+  // <path value=".."/>: puts a folder first in the search path. A relative
+  // value is taken from the current file's folder, or else resolved.
+  void add_search_path(const pugi::xml_node& node);
   bool is_open(const std::string& name) const;  // include cycles
 
   std::string where(const pugi::xml_node& node) const;
@@ -72,6 +84,7 @@ class Context {
   const Source& current() const { return *sources_.back(); }
 
   std::vector<std::unique_ptr<Source>> sources_;
+  std::vector<std::string> search_path_;  // first match wins
   std::map<std::string, std::string> overrides_;
   std::map<std::string, std::string> defaults_;
 };
