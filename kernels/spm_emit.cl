@@ -6,8 +6,11 @@
  *
  * A light is picked with probability proportional to its power; the leader
  * starts uniformly on it, cosine-weighted about the normal (area), uniform
- * (point) or uniform in the cone (spot). Every associated photon carries
- * phi = Phi_light / (p_light N_s N_a); a spot's photons also carry its falloff. */
+ * (point) or uniform in the cone (spot); a directional light's starts
+ * uniformly on the disk across its direction that covers the scene's
+ * bounding sphere, going along that direction (METHOD.md 14). Every
+ * associated photon carries phi = Phi_light / (p_light N_s N_a); a spot's
+ * photons also carry its falloff. */
 #include "spm_types.h"
 #include "lib/lights.h"
 #include "lib/stream.h"
@@ -29,6 +32,12 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, SpmStreamParams params, __global uint* 
     d = to_world(sample_cosine_hemisphere(u1.x, u1.y), n);
     power = SPM_PI * l->area * load3(l->emission);
     p = offset_origin(p, n, sc.extent);
+  } else if (l->type == SPM_LIGHT_DIRECTIONAL) {
+    const float2 q = l->disk_radius * sample_disk(u0.y, u0.z);
+    d = load3(l->axis_z);
+    p = load3(l->position) + q.x * load3(l->axis_x) + q.y * load3(l->axis_y);
+    n = d;
+    power = l->area * load3(l->emission);
   } else if (l->type == SPM_LIGHT_POINT) {
     p = load3(l->position);
     d = sample_uniform_sphere(u1.x, u1.y);

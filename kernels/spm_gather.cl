@@ -108,7 +108,9 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
     n.y = load3(n.light->position);
   }
   n.delta = dot(n.y - o, d);
-  n.D = length(n.y - (o + n.delta * d));
+  /* A directional light has no point to sample distances about: D = 0
+   * leaves the equi-angular strategy out. */
+  n.D = n.light->type == SPM_LIGHT_DIRECTIONAL ? 0.0f : length(n.y - (o + n.delta * d));
   return n;
 }
 
@@ -177,7 +179,9 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
  * (outside them nothing scatters), with sigma_s at the point and the
  * transmittance to it and to the light by medium.h's marching or ratio
  * tracking. A flight-distance strategy would need the inverse of the
- * segment's optical depth; equi-angular sampling already has its pdf. */
+ * segment's optical depth; equi-angular sampling already has its pdf. A
+ * directional light, which has no point to centre it on, gets a uniform
+ * distance in that part instead (METHOD.md 14). */
 inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1,
                                           float step, SpmRng rng) {
   float a = t0, b = t1;
@@ -186,12 +190,19 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
   const float g = m->phase == SPM_PHASE_HG ? m->g : 0.0f;
   const SpmNeeLight n = nee_light(s, o, d, rng);
   const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
-  if (!(n.D > 0.0f)) return (float3)(0.0f);
-  const float th0 = atan2(a - n.delta, n.D);
-  const float th1 = atan2(b - n.delta, n.D);
-  const float t = n.delta + n.D * tan(th0 + u.x * (th1 - th0));
+  float t, pdf;
+  if (n.light->type == SPM_LIGHT_DIRECTIONAL) {
+    if (!(b > a) || isinf(b)) return (float3)(0.0f);
+    t = a + u.x * (b - a);
+    pdf = 1.0f / (b - a);
+  } else {
+    if (!(n.D > 0.0f)) return (float3)(0.0f);
+    const float th0 = atan2(a - n.delta, n.D);
+    const float th1 = atan2(b - n.delta, n.D);
+    t = n.delta + n.D * tan(th0 + u.x * (th1 - th0));
+    pdf = n.D / ((th1 - th0) * (n.D * n.D + (t - n.delta) * (t - n.delta)));
+  }
   if (!(t >= a && t <= b)) return (float3)(0.0f);
-  const float pdf = n.D / ((th1 - th0) * (n.D * n.D + (t - n.delta) * (t - n.delta)));
   const float3 x = o + t * d;
   const float3 sigma_s = medium_sigma_t(&s->md, medium, x) * medium_albedo(&s->md, medium, x);
   if (max_comp(sigma_s) <= 0.0f) return (float3)(0.0f);

@@ -189,13 +189,16 @@ typedef struct SpmGridVolume {
 #define SPM_LIGHT_AREA 0u
 #define SPM_LIGHT_POINT 1u
 #define SPM_LIGHT_SPOT 2u
+#define SPM_LIGHT_DIRECTIONAL 3u
 
 typedef struct SpmLight {
-  spm_float emission[3]; /* area: radiance; point and spot: intensity */
+  spm_float emission[3]; /* area: radiance; point and spot: intensity; directional: irradiance */
   spm_uint type;
-  spm_float position[3]; /* point, spot; area: the centroid of its surface, where final-gather rays aim */
+  /* point, spot; area: the centroid of its surface, where final-gather rays
+   * aim; directional: the centre of the disk its streams start from */
+  spm_float position[3];
   spm_float power;       /* mean over RGB of the emitted power (METHOD.md 2) */
-  spm_float axis_x[3];   /* spot frame: light shines along +axis_z */
+  spm_float axis_x[3];   /* spot and directional frame: light shines along +axis_z */
   spm_float cos_cutoff;
   spm_float axis_y[3];
   spm_float cos_beam;
@@ -203,14 +206,15 @@ typedef struct SpmLight {
   spm_float cutoff;      /* radians */
   spm_uint prim_begin;   /* area: range in the light-primitive table */
   spm_uint prim_count;
-  spm_float area;        /* area: total surface area */
+  spm_float area;        /* area: total surface area; directional: its disk's, pi disk_radius^2 */
   spm_float beam_width;  /* spot: radians */
   spm_int medium;        /* medium the light sits in (area: shape exterior) */
   /* The probability that a final-gather ray aimed at the lights aims at
    * this one (spm_gather.cl, gather_direction): its share of the power of
    * the small lights in a medium (host/scene/gpu_scene.h), 0 for others. */
   spm_float aim;
-  spm_uint pad[2];
+  spm_float disk_radius; /* directional: the scene's bounding sphere's (METHOD.md 14) */
+  spm_uint pad;
 } SpmLight;
 
 /* Area-light primitive table entry: cumulative area fraction, for sampling a

@@ -1199,6 +1199,41 @@ TEST(SceneParser, OtherIntegratorIsIgnoredUnchecked) {
   EXPECT_EQ(s.integrator.integrator_type, "spm");
 }
 
+// Mitsuba's directional emitter: irradiance, travelling along `direction` or
+// to_world's +z; it takes no medium, and one fog filling all space would
+// leave it dark (Mitsuba renders that black), which is refused.
+TEST(SceneParser, DirectionalLights) {
+  Scene s = load(R"(<shape type="rectangle"/>
+<emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/><rgb name="irradiance" value="3"/></emitter>
+<emitter type="directional"><transform name="to_world"><rotate x="1" angle="90"/></transform></emitter>)");
+  ASSERT_EQ(s.lights.size(), 3u);
+  EXPECT_EQ(s.lights[0].type, Light::Type::Directional);
+  expect_vec3(s.lights[0].direction, {0, -1, 0});
+  expect_vec3(s.lights[0].irradiance, glm::vec3(3.0f));
+  EXPECT_EQ(s.lights[0].medium, -1);
+  expect_vec3(s.lights[1].direction, {0, -1, 0});  // +z rotated by 90 degrees about x
+  expect_vec3(s.lights[1].irradiance, glm::vec3(1.0f));
+  expect_error(R"(<shape type="rectangle"/>
+<emitter type="directional"><transform name="to_world"><rotate x="1" angle="90"/></transform>
+<vector name="direction" x="0" y="-1" z="0"/> <!--here-->
+</emitter>)",
+               "either 'direction' or 'to_world'");
+  expect_error(R"(<shape type="rectangle"/>
+<emitter type="directional">
+<vector name="direction" value="0"/> <!--here-->
+</emitter>)",
+               "must be non-zero");
+  expect_error(R"(<shape type="rectangle"/>
+<emitter type="directional"><medium type="homogeneous"/> <!--here-->
+</emitter>)",
+               "<medium> is not allowed in emitter 'directional'");
+  expect_error(R"(<sensor type="perspective"><medium type="homogeneous"/></sensor>
+<shape type="rectangle"/>
+<emitter type="directional"/> <!--here-->)",
+               "a medium fills all space");
+  expect_error(R"(<emitter type="directional"/> <!--here-->)", "no shape to light");
+}
+
 // moment and aov only add outputs: the integrator they wrap is read.
 TEST(SceneParser, WrapperIntegratorsAreReadAsTheOneTheyWrap) {
   Scene moment = load(R"(<integrator type="moment">

@@ -103,7 +103,7 @@ float scene_diagonal(const Scene& scene) {
     }
   }
   for (const Light& l : scene.lights) {
-    if (l.type == Light::Type::Area) continue;
+    if (l.type == Light::Type::Area || l.type == Light::Type::Directional) continue;
     lo = glm::min(lo, l.position);
     hi = glm::max(hi, l.position);
   }

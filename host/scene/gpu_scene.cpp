@@ -65,7 +65,7 @@ void aim_at_small_lights(SceneTables& t) {
   std::vector<bool> aimed;
   double total = 0.0;
   for (const SpmLight& l : t.lights) {
-    aimed.push_back(l.medium >= 0 && light_size(t, l) <= kAimedLightSize * diagonal);
+    aimed.push_back(l.medium >= 0 && l.type != SPM_LIGHT_DIRECTIONAL && light_size(t, l) <= kAimedLightSize * diagonal);
     if (aimed.back()) total += l.power;
   }
   for (size_t i = 0; i < t.lights.size(); ++i) {
@@ -404,6 +404,20 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
         t.light_prims.push_back({ids[k], cdf});
       }
       g.area = static_cast<float>(area);
+    } else if (l.type == Light::Type::Directional) {
+      // Streams start on the disk across the light's direction that covers
+      // the bounding sphere, centred on it and just outside it (METHOD.md 14).
+      g.type = SPM_LIGHT_DIRECTIONAL;
+      put3(g.emission, l.irradiance);
+      const BoundingSphere b = scene_bounding_sphere(scene);
+      const glm::vec3 w = l.direction;
+      const glm::vec3 u = glm::normalize(glm::cross(std::abs(w.x) > 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0), w));
+      put3(g.axis_x, u);
+      put3(g.axis_y, glm::cross(w, u));
+      put3(g.axis_z, w);
+      put3(g.position, glm::vec3(b.center - glm::dvec3(w) * (1.001 * b.radius)));
+      g.disk_radius = static_cast<float>(b.radius);
+      g.area = static_cast<float>(light_extent(scene, l));
     } else {
       g.type = l.type == Light::Type::Point ? SPM_LIGHT_POINT : SPM_LIGHT_SPOT;
       put3(g.emission, l.intensity);

@@ -33,8 +33,39 @@ double spot_solid_angle(double cutoff, double beam) {
 
 }  // namespace
 
+BoundingSphere scene_bounding_sphere(const Scene& scene) {
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (const Shape& sh : scene.shapes) {
+    for (const glm::vec3& p : sh.positions) {
+      lo = glm::min(lo, glm::dvec3(p));
+      hi = glm::max(hi, glm::dvec3(p));
+    }
+    if (sh.kind == Shape::Kind::Sphere) {
+      lo = glm::min(lo, glm::dvec3(sh.center) - double(sh.radius));
+      hi = glm::max(hi, glm::dvec3(sh.center) + double(sh.radius));
+    }
+  }
+  if (!(lo.x <= hi.x)) return {};
+  return {0.5 * (lo + hi), 0.5 * glm::length(hi - lo)};
+}
+
+glm::vec3 light_emission(const Light& light) {
+  switch (light.type) {
+    case Light::Type::Area:
+      return light.radiance;
+    case Light::Type::Directional:
+      return light.irradiance;
+    default:
+      return light.intensity;
+  }
+}
+
 double light_extent(const Scene& scene, const Light& light) {
   switch (light.type) {
+    case Light::Type::Directional: {
+      const double r = scene_bounding_sphere(scene).radius;
+      return kPi * r * r;
+    }
     case Light::Type::Point:
       return 4.0 * kPi;
     case Light::Type::Spot:
@@ -46,8 +77,7 @@ double light_extent(const Scene& scene, const Light& light) {
 }
 
 glm::dvec3 light_power(const Scene& scene, const Light& light) {
-  const glm::vec3 emitted = light.type == Light::Type::Area ? light.radiance : light.intensity;
-  return glm::dvec3(emitted) * light_extent(scene, light);
+  return glm::dvec3(light_emission(light)) * light_extent(scene, light);
 }
 
 }  // namespace spm

@@ -9,12 +9,25 @@
 
 namespace spm {
 
+// The sphere around the scene's shapes (their vertices and spheres), which a
+// light from infinity lights (METHOD.md 14): the centre of their bounding box
+// and half its diagonal; radius 0 for a scene without shapes.
+struct BoundingSphere {
+  glm::dvec3 center{0.0};
+  double radius = 0.0;
+};
+BoundingSphere scene_bounding_sphere(const Scene& scene);
+
 // What the emission is multiplied by: pi times the area of an area light's
 // shape, 4 pi for a point light, Mitsuba's spot falloff integrated over the
-// sphere for a spot light.
+// sphere for a spot light, the area pi R^2 of the disk across the bounding
+// sphere that a directional light's streams start from.
 double light_extent(const Scene& scene, const Light& light);
 
-// Per RGB channel: radiance (area) or intensity (point, spot) times the extent.
+// Radiance (area), intensity (point, spot) or irradiance (directional).
+glm::vec3 light_emission(const Light& light);
+
+// Per RGB channel: the emission times the extent.
 glm::dvec3 light_power(const Scene& scene, const Light& light);
 
 }  // namespace spm

@@ -519,8 +519,9 @@ class Loader {
   // picked by (scene/light_power.h, the mean over RGB), rounded to float.
   void check_power(const Light& light) const {
     const bool area = light.type == Light::Type::Area;
-    const char* what = area ? "radiance" : "intensity";
-    const glm::dvec3 emitted(area ? light.radiance : light.intensity);
+    const bool directional = light.type == Light::Type::Directional;
+    const char* what = area ? "radiance" : directional ? "irradiance" : "intensity";
+    const glm::dvec3 emitted(light_emission(light));
     if (!((emitted.x + emitted.y + emitted.z) / 3.0 > 0.0)) {
       throw InputError(light.where, std::string("light emits no power: its ") + what + " is zero");
     }
@@ -529,7 +530,10 @@ class Loader {
     const float power = static_cast<float>((rgb.x + rgb.y + rgb.z) / 3.0);
     if (!(extent > 0.0) || !(power > 0.0f)) {
       throw InputError(light.where, std::string("light emits no power: its ") +
-                                        (area ? "area" : light.type == Light::Type::Spot ? "cone (cutoff_angle)" : "extent") +
+                                        (area                                ? "area"
+                                         : light.type == Light::Type::Spot   ? "cone (cutoff_angle)"
+                                         : directional                       ? "scene (no shape to light)"
+                                                                             : "extent") +
                                         " is zero or too small");
     }
     if (!std::isfinite(power))
@@ -645,8 +649,12 @@ class Loader {
   void parse_emitter(const pugi::xml_node& node) {
     std::string type = object_type(node);
     if (type == "area") ctx_.fail(node, "an 'area' emitter must be nested in a <shape>");
+    if (type == "directional") {
+      parse_directional(node);
+      return;
+    }
     if (type != "point" && type != "spot")
-      ctx_.fail(node, "unsupported emitter type '" + type + "' (area in a shape, point, spot)");
+      ctx_.fail(node, "unsupported emitter type '" + type + "' (area in a shape, point, spot, directional)");
     Props p(ctx_, node, "emitter '" + type + "'");
     Light light;
     light.where = ctx_.where(node);
@@ -684,6 +692,34 @@ class Loader {
       set_medium(light.medium, child, p.what());
       light.medium_given = true;
     }
+    scene_.lights.push_back(light);
+    register_id(node, -1);
+  }
+
+  // Mitsuba's directional emitter: `irradiance` on a surface across its light,
+  // travelling along `direction`, or along to_world's +z. It sits at
+  // infinity, so it takes no medium: its light comes through whatever lies
+  // outside the scene's shapes (METHOD.md 14).
+  void parse_directional(const pugi::xml_node& node) {
+    Props p(ctx_, node, "emitter 'directional'");
+    Light light;
+    light.type = Light::Type::Directional;
+    light.where = ctx_.where(node);
+    if (std::optional<glm::vec3> e = p.get_color("irradiance")) {
+      if (!non_negative(*e)) p.fail("irradiance", "irradiance must not be negative");
+      light.irradiance = *e;
+    }
+    std::optional<glm::mat4> to_world = p.get_transform("to_world");
+    glm::vec3 direction = to_world ? glm::vec3(*to_world * glm::vec4(0.0f, 0.0f, 1.0f, 0.0f)) : glm::vec3(0, 0, 1);
+    if (std::optional<glm::vec3> d = p.get_point("direction")) {
+      if (to_world) p.fail("direction", "give either 'direction' or 'to_world' of a directional emitter, not both");
+      direction = *d;
+    }
+    if (!(glm::length(direction) > 0.0f) || !std::isfinite(glm::length(direction)))
+      p.fail(to_world ? "to_world" : "direction", "the direction of a directional emitter must be non-zero");
+    light.direction = glm::normalize(direction);
+    p.finish();
+    no_objects(p);
     scene_.lights.push_back(light);
     register_id(node, -1);
   }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "scene/light_power.h"
 #include "util/errors.h"
 
 namespace spm {
@@ -64,26 +65,44 @@ std::vector<dvec3> probe_directions() {
   return out;
 }
 
+// The medium on the near side of the first medium-transition shape that
+// o + t d meets, or `none` when it meets none.
+int first_transition_medium(const Scene& scene, dvec3 o, dvec3 d, int none) {
+  ShapeHit best;
+  int medium = none;
+  for (const Shape& s : scene.shapes) {
+    if (s.interior < 0 && s.exterior < 0) continue;
+    const double before = best.t;
+    if (s.kind == Shape::Kind::Sphere) {
+      hit_sphere(o, d, s, best);
+    } else {
+      for (const glm::uvec3& tri : s.triangles) {
+        hit_triangle(o, d, dvec3(s.positions[tri.x]), dvec3(s.positions[tri.y]), dvec3(s.positions[tri.z]),
+                     s.flip_normals, best);
+      }
+    }
+    if (best.t < before) medium = best.side > 0 ? s.exterior : s.interior;
+  }
+  return medium;
+}
+
+// The medium around the scene's shapes, where a directional light's streams
+// start (`start`, outside the bounding sphere, going along d): the one on the
+// near side of the first medium boundary they meet. When they meet none, a
+// fog nested in the sensor with no medium on any shape fills all space
+// (METHOD.md 9), and any other scene has vacuum there.
+int medium_at_infinity(const Scene& scene, dvec3 start, dvec3 d) {
+  bool bounded = false;
+  for (const Shape& s : scene.shapes) bounded = bounded || s.interior >= 0 || s.exterior >= 0;
+  return first_transition_medium(scene, start, d, bounded ? -1 : scene.camera.medium);
+}
+
 }  // namespace
 
 int region_medium(const Scene& scene, glm::vec3 p) {
   int found = kUndecided;
   for (const dvec3& d : probe_directions()) {
-    ShapeHit best;
-    int medium_of_best = scene.camera.medium;
-    for (const Shape& s : scene.shapes) {
-      if (s.interior < 0 && s.exterior < 0) continue;
-      const double before = best.t;
-      if (s.kind == Shape::Kind::Sphere) {
-        hit_sphere(dvec3(p), d, s, best);
-      } else {
-        for (const glm::uvec3& tri : s.triangles) {
-          hit_triangle(dvec3(p), d, dvec3(s.positions[tri.x]), dvec3(s.positions[tri.y]), dvec3(s.positions[tri.z]),
-                       s.flip_normals, best);
-        }
-      }
-      if (best.t < before) medium_of_best = best.side > 0 ? s.exterior : s.interior;
-    }
+    const int medium_of_best = first_transition_medium(scene, dvec3(p), d, scene.camera.medium);
     if (found == kUndecided) {
       found = medium_of_best;
     } else if (found != medium_of_best) {
@@ -94,7 +113,21 @@ int region_medium(const Scene& scene, glm::vec3 p) {
 }
 
 void resolve_light_media(Scene& scene) {
+  const BoundingSphere bounds = scene_bounding_sphere(scene);
   for (Light& light : scene.lights) {
+    if (light.type == Light::Type::Directional) {
+      // Its streams start on a disk outside the bounding sphere
+      // (METHOD.md 14), in the medium around the scene's shapes.
+      const glm::dvec3 d(light.direction);
+      light.medium = medium_at_infinity(scene, bounds.center - d * (2.0 * bounds.radius + 1.0), d);
+      if (light.medium != -1) {
+        throw InputError(light.where,
+                         "a directional light shines from infinity, and a medium fills all space around the "
+                         "scene: no light of it arrives (Mitsuba renders it black); give the medium a boundary "
+                         "shape");
+      }
+      continue;
+    }
     if (light.medium_given) continue;
     glm::vec3 p = light.position;
     if (light.type == Light::Type::Area) {

@@ -46,10 +46,12 @@ struct GridVolume {
 };
 
 struct Light {
-  enum class Type { Area, Point, Spot };
+  enum class Type { Area, Point, Spot, Directional };
   Type type = Type::Area;
-  glm::vec3 radiance{1.0f};   // area
-  glm::vec3 intensity{1.0f};  // point, spot
+  glm::vec3 radiance{1.0f};    // area
+  glm::vec3 intensity{1.0f};   // point, spot
+  glm::vec3 irradiance{1.0f};  // directional
+  glm::vec3 direction{0.0f, 0.0f, 1.0f};  // directional: where its light travels (world, unit)
   glm::vec3 position{0.0f};   // point, spot (world)
   glm::mat4 to_world{1.0f};   // spot: shines along its local +z
   float cutoff_angle = 20.0f;  // spot, degrees

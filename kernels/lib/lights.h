@@ -69,9 +69,17 @@ inline void sample_area_light_point(const SpmScene* s, const __global SpmLight* 
  * point and spot lights) of light l, picked with probability prob and
  * sampled uniformly by area, sends to x, divided by the sampling pdf (per unit
  * solid angle at x, cosine at x not included), or 0; *wi and *dist give
- * the shadow ray. */
+ * the shadow ray. A directional light has no point: its irradiance over
+ * prob, from its direction. */
 inline float3 light_incident(const __global SpmLight* l, float3 x, float3 p, float3 n, float prob, float3* wi,
                              float* dist) {
+  if (l->type == SPM_LIGHT_DIRECTIONAL) {
+    /* From infinity along -axis_z: the shadow ray ends at the disk the
+     * streams start from, outside the scene (METHOD.md 14). */
+    *wi = -load3(l->axis_z);
+    *dist = dot(x - load3(l->position), load3(l->axis_z));
+    return *dist > 0.0f ? load3(l->emission) / prob : (float3)(0.0f);
+  }
   const float3 to = p - x;
   const float d2 = dot(to, to);
   *dist = sqrt(d2);
