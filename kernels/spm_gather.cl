@@ -484,7 +484,7 @@ inline bool sees_chain_start(const SpmScene* s, const __global SpmCamera* cam, f
   while (walk_next(s, &w)) {
     if (!w.hit) return false;
     if (w.state == SPM_WALK_CROSS) continue;
-    return w.material->type == SPM_MAT_MIRROR || w.material->type == SPM_MAT_DIELECTRIC;
+    return is_specular(w.material->type);
   }
   return false;
 }

@@ -41,7 +41,7 @@ __kernel void spm_walk(SPM_SCENE_PARAMS, const __global float4* origins, const _
     const uint k = i * SPM_WALK_TEST_SEGMENTS + n++;
     segments[k] = (float4)(w.t0, w.t1, (float)w.medium, w.hit ? (float)w.material->type : -1.0f);
     draws[k] = (uint2)(w.rng.event, walk_lane(&w));
-    if (w.hit && (w.material->type == SPM_MAT_MIRROR || w.material->type == SPM_MAT_DIELECTRIC)) {
+    if (w.hit && is_specular(w.material->type)) {
       float3 next;
       if (specular_bounce(w.material, &w.surf, w.d, u, true, &next) > 0.0f) walk_turn(&w, next);
     }

@@ -136,6 +136,7 @@ typedef struct SpmShape {
 #define SPM_MAT_MIRROR 1u     /* conductor without material: perfect mirror */
 #define SPM_MAT_DIELECTRIC 2u
 #define SPM_MAT_NULL 3u       /* medium boundary: rays pass straight through */
+#define SPM_MAT_THIN_DIELECTRIC 4u /* a thin sheet of glass: reflects, or passes straight on */
 
 typedef struct SpmMaterial {
   spm_float reflectance[3];

@@ -294,10 +294,11 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
   for (const auto& m : scene.materials) {
     SpmMaterial g{};
     put3(g.reflectance, m.reflectance);
-    g.type = m.type == Material::Type::Diffuse   ? SPM_MAT_DIFFUSE
-             : m.type == Material::Type::Mirror  ? SPM_MAT_MIRROR
-             : m.type == Material::Type::Dielectric ? SPM_MAT_DIELECTRIC
-                                                 : SPM_MAT_NULL;
+    g.type = m.type == Material::Type::Diffuse          ? SPM_MAT_DIFFUSE
+             : m.type == Material::Type::Mirror         ? SPM_MAT_MIRROR
+             : m.type == Material::Type::Dielectric     ? SPM_MAT_DIELECTRIC
+             : m.type == Material::Type::ThinDielectric ? SPM_MAT_THIN_DIELECTRIC
+                                                        : SPM_MAT_NULL;
     g.eta = m.int_ior / m.ext_ior;
     g.twosided = m.twosided ? 1u : 0u;
     t.materials.push_back(g);

@@ -553,8 +553,10 @@ class Loader {
 
   Material read_bsdf(const pugi::xml_node& node) {
     std::string type = object_type(node);
-    if (type != "diffuse" && type != "conductor" && type != "dielectric" && type != "null" && type != "twosided")
-      ctx_.fail(node, "unsupported bsdf type '" + type + "' (diffuse, conductor, dielectric, twosided, null)");
+    if (type != "diffuse" && type != "conductor" && type != "dielectric" && type != "thindielectric" &&
+        type != "null" && type != "twosided")
+      ctx_.fail(node, "unsupported bsdf type '" + type +
+                          "' (diffuse, conductor, dielectric, thindielectric, twosided, null)");
     Props p(ctx_, node, "bsdf '" + type + "'");
     Material m;
     m.where = ctx_.where(node);
@@ -570,8 +572,8 @@ class Loader {
         p.fail("material", "conductor material '" + material + "' is not supported (only \"none\", a perfect mirror)");
       m.type = Material::Type::Mirror;
       m.reflectance = glm::vec3(1.0f);  // material "none": eta 0, k 1, reflects everything
-    } else if (type == "dielectric") {
-      m.type = Material::Type::Dielectric;
+    } else if (type == "dielectric" || type == "thindielectric") {
+      m.type = type == "dielectric" ? Material::Type::Dielectric : Material::Type::ThinDielectric;
       m.int_ior = ior(p, "int_ior", m.int_ior);
       m.ext_ior = ior(p, "ext_ior", m.ext_ior);
     } else if (type == "null") {
@@ -620,8 +622,9 @@ class Loader {
       ctx_.fail(child, "<" + tag + "> is not allowed in bsdf 'twosided'");
     }
     if (inner.twosided) ctx_.fail(child, "bsdf 'twosided' cannot wrap another twosided bsdf");
-    if (inner.type == Material::Type::Dielectric || inner.type == Material::Type::Null)
-      ctx_.fail(child, "bsdf 'twosided' cannot wrap a transmissive bsdf (dielectric, null)");
+    if (inner.type == Material::Type::Dielectric || inner.type == Material::Type::ThinDielectric ||
+        inner.type == Material::Type::Null)
+      ctx_.fail(child, "bsdf 'twosided' cannot wrap a transmissive bsdf (dielectric, thindielectric, null)");
     inner.twosided = true;
     inner.where = ctx_.where(node);
     return inner;

@@ -14,10 +14,10 @@
 namespace spm {
 
 struct Material {
-  enum class Type { Diffuse, Mirror, Dielectric, Null };
+  enum class Type { Diffuse, Mirror, Dielectric, ThinDielectric, Null };
   Type type = Type::Diffuse;
   glm::vec3 reflectance{0.5f};  // Mitsuba's default bsdf is diffuse 0.5
-  float int_ior = 1.5046f;      // Mitsuba's dielectric defaults: bk7 inside,
+  float int_ior = 1.5046f;      // Mitsuba's (thin)dielectric defaults: bk7 inside,
   float ext_ior = 1.000277f;    // air outside
   bool twosided = false;
   std::string where;  // "file:line" of the element, for messages

@@ -30,11 +30,20 @@ inline float3 facing_normal(const SpmSurface* surf, float3 d) {
   return dot(d, surf->ng) < 0.0f ? surf->ns : -surf->ns;
 }
 
-/* A mirror or dielectric bounce: the new direction, and the throughput factor
- * (0: absorbed). Dielectrics pick reflection with probability F, so the factor
+/* Mirror, glass or a thin sheet of glass: the surfaces whose bounce is a
+ * delta direction, at which streams collapse (METHOD.md 4). */
+inline bool is_specular(uint type) {
+  return type == SPM_MAT_MIRROR || type == SPM_MAT_DIELECTRIC || type == SPM_MAT_THIN_DIELECTRIC;
+}
+
+/* A specular bounce: the new direction, and the throughput factor (0:
+ * absorbed). Dielectrics pick reflection with probability F, so the factor
  * is 1, except that radiance (camera rays, `radiance` true) is scaled by
  * (eta_i/eta_t)^2 on refraction for the change of solid angle; flux (photons)
- * is not. */
+ * is not. A thin dielectric is Mitsuba's: a sheet whose two faces reflect
+ * F each, with every inner reflection summed, R = 2F / (1 + F) (F at the
+ * sheet's eta whichever side the ray comes from); what it lets through goes
+ * on undeviated, so no solid angle changes. */
 inline float specular_bounce(const __global SpmMaterial* m, const SpmSurface* surf, float3 d, float u,
                              bool radiance, float3* out) {
   const float3 n = facing_normal(surf, d);
@@ -42,6 +51,13 @@ inline float specular_bounce(const __global SpmMaterial* m, const SpmSurface* su
   if (m->type == SPM_MAT_MIRROR) {
     if (!reflects_from(m, surf, d)) return 0.0f;
     *out = normalize(d + 2.0f * cos_i * n);
+    return 1.0f;
+  }
+  if (m->type == SPM_MAT_THIN_DIELECTRIC) {
+    float cos_t;
+    float r = fresnel_dielectric(cos_i, m->eta, &cos_t);
+    r *= 2.0f / (1.0f + r);
+    *out = u < r ? normalize(d + 2.0f * cos_i * n) : d;
     return 1.0f;
   }
   const float eta = dot(d, surf->ng) < 0.0f ? m->eta : 1.0f / m->eta;
