@@ -59,7 +59,8 @@ findings="$build/findings"
 rm -rf "$seeds"
 mkdir -p "$seeds" "$corpus" "$findings"
 # (tests/data/fuzz holds the inputs of earlier findings, regression tests now.)
-find $seed_dirs -type f -name "$pattern" -exec cp -t "$seeds" {} +
+# Named by their paths: files of one name in several folders (quad.obj) all seed.
+find $seed_dirs -type f -name "$pattern" | while IFS= read -r f; do cp "$f" "$seeds/${f//\//_}"; done
 [ -n "$(ls -A "$seeds")" ] || fail "no seed files ($pattern) found"
 
 log="$build/fuzz-$target.log"
