@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "render/render.h"
+#include "scene/light_power.h"
 
 namespace spm {
 
@@ -91,17 +92,7 @@ float pilot_radius(const ScalePilot& pilot) {
 namespace {
 
 float scene_diagonal(const Scene& scene) {
-  glm::vec3 lo(INFINITY), hi(-INFINITY);
-  for (const Shape& sh : scene.shapes) {
-    for (const glm::vec3& p : sh.positions) {
-      lo = glm::min(lo, p);
-      hi = glm::max(hi, p);
-    }
-    if (sh.kind == Shape::Kind::Sphere) {
-      lo = glm::min(lo, sh.center - sh.radius);
-      hi = glm::max(hi, sh.center + sh.radius);
-    }
-  }
+  auto [lo, hi] = shape_bounds(scene);
   for (const Light& l : scene.lights) {
     if (l.type == Light::Type::Area || l.type == Light::Type::Directional) continue;
     lo = glm::min(lo, l.position);

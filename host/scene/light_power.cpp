@@ -33,19 +33,25 @@ double spot_solid_angle(double cutoff, double beam) {
 
 }  // namespace
 
-BoundingSphere scene_bounding_sphere(const Scene& scene) {
-  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+ShapeBounds shape_bounds(const Scene& scene) {
+  ShapeBounds b;
   for (const Shape& sh : scene.shapes) {
     for (const glm::vec3& p : sh.positions) {
-      lo = glm::min(lo, glm::dvec3(p));
-      hi = glm::max(hi, glm::dvec3(p));
+      b.lo = glm::min(b.lo, p);
+      b.hi = glm::max(b.hi, p);
     }
     if (sh.kind == Shape::Kind::Sphere) {
-      lo = glm::min(lo, glm::dvec3(sh.center) - double(sh.radius));
-      hi = glm::max(hi, glm::dvec3(sh.center) + double(sh.radius));
+      b.lo = glm::min(b.lo, sh.center - sh.radius);
+      b.hi = glm::max(b.hi, sh.center + sh.radius);
     }
   }
-  if (!(lo.x <= hi.x)) return {};
+  return b;
+}
+
+BoundingSphere scene_bounding_sphere(const Scene& scene) {
+  const ShapeBounds b = shape_bounds(scene);
+  if (!(b.lo.x <= b.hi.x)) return {};
+  const glm::dvec3 lo(b.lo), hi(b.hi);
   return {0.5 * (lo + hi), 0.5 * glm::length(hi - lo)};
 }
 

@@ -3,15 +3,23 @@
 // by it.
 #pragma once
 
+#include <cmath>
 #include <glm/glm.hpp>
 
 #include "scene/scene.h"
 
 namespace spm {
 
-// The sphere around the scene's shapes (their vertices and spheres), which a
-// light from infinity lights (METHOD.md 14): the centre of their bounding box
-// and half its diagonal; radius 0 for a scene without shapes.
+// The box around the scene's shapes, their vertices and spheres (lo > hi for
+// a scene without shapes).
+struct ShapeBounds {
+  glm::vec3 lo{INFINITY}, hi{-INFINITY};
+};
+ShapeBounds shape_bounds(const Scene& scene);
+
+// The sphere around the scene's shapes, which a light from infinity lights
+// (METHOD.md 14): the centre of shape_bounds and half its diagonal; radius 0
+// for a scene without shapes.
 struct BoundingSphere {
   glm::dvec3 center{0.0};
   double radius = 0.0;

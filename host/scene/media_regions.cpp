@@ -113,11 +113,11 @@ int region_medium(const Scene& scene, glm::vec3 p) {
 }
 
 void resolve_light_media(Scene& scene) {
-  const BoundingSphere bounds = scene_bounding_sphere(scene);
   for (Light& light : scene.lights) {
     if (light.type == Light::Type::Directional) {
       // Its streams start on a disk outside the bounding sphere
       // (METHOD.md 14), in the medium around the scene's shapes.
+      const BoundingSphere bounds = scene_bounding_sphere(scene);
       const glm::dvec3 d(light.direction);
       light.medium = medium_at_infinity(scene, bounds.center - d * (2.0 * bounds.radius + 1.0), d);
       if (light.medium != -1) {
