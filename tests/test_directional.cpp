@@ -10,9 +10,7 @@
 #include <cmath>
 #include <sstream>
 #include <string>
-#include <vector>
 
-#include "render/render.h"
 #include "scene/loader.h"
 #include "test_support.h"
 
@@ -66,19 +64,8 @@ double expected_radiance(bool fog) {
   return kAlbedo / kPi * kIrradiance * kCosTheta * attenuation;
 }
 
-// The image means of `renders` renders of one pass each, seeds 1, 2, ...:
-// independent draws of the estimate.
 spm::test::Measured render_means(bool fog, const std::string& direct, int renders) {
-  const spm::Scene scene = spm::load_scene_string(scene_xml(fog, direct), "directional.xml");
-  std::vector<double> means;
-  for (int i = 0; i < renders; ++i) {
-    spm::RenderSettings settings;
-    settings.passes = 1;
-    settings.spp = 4;
-    settings.seed = static_cast<uint32_t>(i + 1);
-    means.push_back(spm::test::image_mean(spm::render(scene, settings, spm::test::device())));
-  }
-  return spm::test::mean_of(means);
+  return spm::test::one_pass_means(spm::load_scene_string(scene_xml(fog, direct), "directional.xml"), renders);
 }
 
 // Every camera sample sees the same flat plane and takes one shadow ray to

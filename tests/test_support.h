@@ -77,6 +77,20 @@ inline Measured mean_of(const std::vector<double>& draws) {
   return {mean, std::sqrt(std::max(0.0, sum2 / n - mean * mean) / (n - 1.0))};
 }
 
+// The image means of `renders` renders of `scene`, one pass of 4 samples per
+// pixel each, seeds 1, 2, ...: independent draws of its estimate.
+inline Measured one_pass_means(const Scene& scene, int renders) {
+  std::vector<double> means;
+  for (int i = 0; i < renders; ++i) {
+    RenderSettings settings;
+    settings.passes = 1;
+    settings.spp = 4;
+    settings.seed = static_cast<uint32_t>(i + 1);
+    means.push_back(image_mean(render(scene, settings, device())));
+  }
+  return mean_of(means);
+}
+
 // A coloured Henyey-Greenstein medium for the estimates' brute-force tests:
 // sigma_t and albedo differ per channel, so a channel mixed up shows.
 inline SpmMedium coloured_medium() {

@@ -11,9 +11,7 @@
 #include <cmath>
 #include <sstream>
 #include <string>
-#include <vector>
 
-#include "render/render.h"
 #include "scene/loader.h"
 #include "test_support.h"
 
@@ -73,16 +71,7 @@ std::string scene_xml(double camera_y) {
 }
 
 spm::test::Measured render_means(double camera_y, int renders) {
-  const spm::Scene scene = spm::load_scene_string(scene_xml(camera_y), "thin.xml");
-  std::vector<double> means;
-  for (int i = 0; i < renders; ++i) {
-    spm::RenderSettings settings;
-    settings.passes = 1;
-    settings.spp = 4;
-    settings.seed = static_cast<uint32_t>(i + 1);
-    means.push_back(spm::test::image_mean(spm::render(scene, settings, spm::test::device())));
-  }
-  return spm::test::mean_of(means);
+  return spm::test::one_pass_means(spm::load_scene_string(scene_xml(camera_y), "thin.xml"), renders);
 }
 
 // The camera at y = 1 sits under the pane (at y = 1.5): the plane is lit
