@@ -50,25 +50,63 @@ inline float3 shadow_transmittance(const SpmScene* s, float3 o, float3 d, float 
   return (float3)(0.0f);
 }
 
-/* Direct light reflected by a diffuse surface towards -d; `medium` is the
- * one the camera path arrived in. */
+/* A light sample for next-event estimation at a surface point x: the
+ * light, its pick probability, the radiance it sends to x over the
+ * sampling density (sample_light_from) and the shadow ray (wi, dist);
+ * *reach: how far the shadow ray goes, short of an area light's own
+ * surface. */
+typedef struct SpmLightSample {
+  const __global SpmLight* light;
+  float prob;
+  float3 li, wi, p, n;
+  float dist, reach;
+} SpmLightSample;
+
+inline SpmLightSample surface_light_sample(const SpmScene* s, float3 x, SpmRng rng) {
+  SpmLightSample ls;
+  float4 u = rng4(rng, SPM_RNG_LIGHT_PICK, 0);
+  u.zw = stratify2(rng, SPM_RNG_LIGHT_PICK, 0u);
+  ls.light = &s->lights[pick_light(s, u.x, &ls.prob)];
+  ls.li = sample_light_from(s, ls.light, ls.prob, x, u.yzw, &ls.wi, &ls.dist, &ls.p, &ls.n);
+  /* Point lights have no surface to stop short of. */
+  ls.reach = dot(ls.n, ls.n) > 0.0f ? ls.dist * (1.0f - 1e-4f) : ls.dist;
+  return ls;
+}
+
+/* Direct light reflected by a surface's diffuse lobe towards -d; `medium`
+ * is the one the camera path arrived in. */
 inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __global SpmMaterial* m, float3 d,
                              int medium, float step, SpmRng rng) {
   const float3 n = facing_normal(surf, d);
-  float3 wi, lp, ln;
-  float dist;
-  float4 u = rng4(rng, SPM_RNG_LIGHT_PICK, 0);
-  u.zw = stratify2(rng, SPM_RNG_LIGHT_PICK, 0u);
-  const float3 li = sample_light_incident(s, surf->p, u, &wi, &dist, &lp, &ln);
-  const float cos_x = dot(wi, n);
-  if (cos_x <= 0.0f || max_comp(li) <= 0.0f) return (float3)(0.0f);
-  const float3 o = leave_surface(surf, wi);
-  /* Stop short of an area light's own surface; point lights have none. */
-  const float reach = dot(ln, ln) > 0.0f ? dist * (1.0f - 1e-4f) : dist;
-  const float3 tr =
-      shadow_transmittance(s, o, wi, reach, target_medium(&s->shapes[surf->shape], surf->ng, wi, medium), step, rng,
-                           SPM_TR_DIRECT);
-  return load3(m->reflectance) * SPM_INV_PI * cos_x * li * tr;
+  const SpmLightSample ls = surface_light_sample(s, surf->p, rng);
+  const float cos_x = dot(ls.wi, n);
+  if (cos_x <= 0.0f || max_comp(ls.li) <= 0.0f) return (float3)(0.0f);
+  const float3 tr = shadow_transmittance(s, leave_surface(surf, ls.wi), ls.wi, ls.reach,
+                                         target_medium(&s->shapes[surf->shape], surf->ng, ls.wi, medium), step, rng,
+                                         SPM_TR_DIRECT);
+  return diffuse_f_pi(m, n, ls.wi, -d) * SPM_INV_PI * cos_x * ls.li * tr;
+}
+
+/* The power heuristic's weight (Veach 1997) of a sample of density a
+ * against another strategy's b. */
+inline float power_heuristic(float a, float b) { return a * a / (a * a + b * b); }
+
+/* Direct light a glossy lobe (local frame n, wi_local towards the camera
+ * side) reflects or transmits towards -d, by a light sample weighted by
+ * multiple importance against the lobe's own sampling, which reaches
+ * lights too (glossy_turn; METHOD.md 13). */
+inline float3 direct_glossy(const SpmScene* s, const SpmSurface* surf, const __global SpmMaterial* m, float3 n,
+                            float3 wi_local, int medium, float step, SpmRng rng) {
+  const SpmLightSample ls = surface_light_sample(s, surf->p, rng);
+  if (max_comp(ls.li) <= 0.0f) return (float3)(0.0f);
+  float pdf;
+  const float3 f = glossy_eval_local(m, wi_local, to_local(ls.wi, n), true, &pdf);
+  if (max_comp(f) <= 0.0f) return (float3)(0.0f);
+  const float3 tr = shadow_transmittance(s, leave_surface(surf, ls.wi), ls.wi, ls.reach,
+                                         target_medium(&s->shapes[surf->shape], surf->ng, ls.wi, medium), step, rng,
+                                         SPM_TR_DIRECT);
+  const float light_pdf = light_pdf_from(s, ls.light, ls.prob, surf->p, ls.p, ls.n);
+  return f * ls.li * tr * (light_pdf > 0.0f ? power_heuristic(light_pdf, pdf) : 1.0f);
 }
 
 /* A light picked by power for single scattering along o + t d (METHOD.md
@@ -376,11 +414,12 @@ inline float3 gather_direction(const SpmScene* s, float aim, float3 x, float3 n,
  * its light, and the records, which one pass's gather rays share, carry
  * it with a tenth of that (docs/experiments/gather.md "Single scattering along the gather
  * rays"). The ray's direction comes from gather_direction, and what it
- * brings is scaled by its weight, the reflectance / pi times the cosine
- * over the density, less the reflectance, which the caller applies (1 for
- * a cosine-weighted ray). Emission and
- * specular surfaces the ray meets add nothing: direct light comes from
- * next-event estimation, and light through a specular chain from the
+ * brings is scaled by its weight, the BSDF of `material`'s diffuse lobe
+ * times the cosine over the density, less diffuse_exit, which the caller
+ * applies (1 for a cosine-weighted ray into a diffuse surface; a
+ * plastic's coat takes its share, diffuse_entry). Emission and
+ * delta or glossy surfaces the ray meets add nothing: direct light comes from
+ * next-event estimation, and light through a delta or glossy vertex from the
  * caustic records read at the vertex itself (SPM_RECORD_CAUSTIC), so no
  * light is counted twice. Where the ray ends near its start
  * (SPM_GATHER_NEAR) its end is a vertex of the same kind: its caustic
@@ -388,8 +427,9 @@ inline float3 gather_direction(const SpmScene* s, float aim, float3 x, float3 n,
  * `segments`: the path's segments up to the first vertex, for max_depth
  * (METHOD.md 10): the records read at the end of hop j's ray have at most
  * max_depth - segments - 1 - j vertices. */
-inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf, float3 d, int medium,
-                           uint segments, uint max_depth, SpmRng rng, uint* tests) {
+inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurface* surf,
+                           const __global SpmMaterial* material, float3 d, int medium, uint segments, uint max_depth,
+                           SpmRng rng, uint* tests) {
   float3 tr = (float3)(1.0f);
   float3 li = (float3)(0.0f);
   SpmSurface x = *surf;
@@ -398,10 +438,11 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
     const uint depth_limit = record_depth_limit(max_depth, segments + hop);
     const float2 u = stratify2(rng, SPM_RNG_FINAL_GATHER, 0u);
     float weight;
-    const float3 wi = gather_direction(s, maps->gather_aim, x.p, facing_normal(&x, d), u,
-                                       rng4(rng, SPM_RNG_FINAL_GATHER, 0u).x, &weight);
+    const float3 xn = facing_normal(&x, d);
+    const float3 wi =
+        gather_direction(s, maps->gather_aim, x.p, xn, u, rng4(rng, SPM_RNG_FINAL_GATHER, 0u).x, &weight);
     if (!(weight > 0.0f)) return li;
-    tr *= weight;
+    tr *= weight * diffuse_entry(material, dot(wi, xn));
     SpmWalk w;
     walk_ray(&w, leave_surface(&x, wi), wi, SPM_INF, target_medium(&s->shapes[x.shape], x.ng, wi, medium), rng,
              SPM_TR_FINAL_GATHER);
@@ -423,23 +464,25 @@ inline float3 final_gather(const SpmScene* s, const SpmMaps* maps, const SpmSurf
       reach += w.t1;
       if (w.state == SPM_WALK_CROSS) continue;
       const __global SpmMaterial* m = w.material;
-      if (m->type != SPM_MAT_DIFFUSE || !reflects_from(m, &w.surf, wi)) break;
+      if (!has_diffuse(m->type) || !reflects_from(m, &w.surf, wi)) break;
       const float3 n = facing_normal(&w.surf, wi);
+      const float3 exit = diffuse_exit(m, -dot(wi, n));
       rng = own;
       medium = w.medium;
       if (direct) li += tr * direct_diffuse(s, &w.surf, m, wi, medium, maps->march_step, rng);
       const SpmPatchFrame patch = patch_frame(s->patches, w.surf.patch);
       if (hop < SPM_GATHER_HOPS && reach < SPM_GATHER_NEAR * maps->radius) {
-        tr *= load3(m->reflectance);
+        tr *= exit;
         if (surface) {
           li += tr * SPM_INV_PI *
                 table_surface_estimate(&maps->table, SPM_READ_GATHER_HOP, w.surf.p, n, depth_limit, &patch);
         }
         x = w.surf;
+        material = m;
         d = wi;
         next = true;
       } else if (surface) {
-        li += tr * load3(m->reflectance) * SPM_INV_PI *
+        li += tr * exit * SPM_INV_PI *
               table_surface_estimate(&maps->table, SPM_READ_GATHER_END, w.surf.p, n, depth_limit, &patch);
       }
       break;
@@ -465,11 +508,42 @@ inline bool specular_turn(SpmWalk* w, SpmRng rng, uint purpose, uint lane, uint 
                           float3* beta) {
   if (++*specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(*specular + 1u, max_depth)) return false;
   float3 next;
-  const float f = specular_bounce(w->material, &w->surf, w->d, rng4(rng, purpose, lane).x, true, &next);
-  if (f == 0.0f) return false;
+  const float3 f = specular_bounce(w->material, &w->surf, w->d, rng4(rng, purpose, lane).x, true, &next);
+  if (max_comp(f) <= 0.0f) return false;
   *beta *= f;
   walk_turn(w, next);
   return true;
+}
+
+/* A camera path's turn at the glossy surface its walk's segment ended on
+ * (METHOD.md 13): next-event estimation there (direct_glossy, into *L,
+ * when `nee`), then a direction sampled from the lobe, whose density goes
+ * to *pdf for the weight of the emission it meets next (glossy_emission).
+ * Counted as a specular vertex is; false where the path ends. */
+inline bool glossy_turn(const SpmScene* s, const SpmMaps* maps, SpmWalk* w, SpmRng rng, uint max_depth, bool nee,
+                        uint* specular, float3* beta, float* pdf, float3* L) {
+  if (++*specular > SPM_MAX_CAMERA_SPECULAR || !within_depth(*specular + 1u, max_depth)) return false;
+  float3 n;
+  if (!glossy_frame(w->material, &w->surf, w->d, &n)) return false;
+  const float3 wi = to_local(-w->d, n);
+  if (nee) *L += *beta * direct_glossy(s, &w->surf, w->material, n, wi, w->medium, maps->march_step, rng);
+  float3 wo;
+  const float3 f = glossy_sample_local(w->material, wi, rng4(rng, SPM_RNG_BSDF, 0).xyz, true, &wo, pdf);
+  if (max_comp(f) <= 0.0f) return false;
+  *beta *= f;
+  walk_turn(w, to_world(wo, n));
+  return true;
+}
+
+/* The weight of emission that a camera path meets at surf right after a
+ * glossy vertex at x, sampled with density pdf: the power heuristic
+ * against next-event estimation from x, which reaches the same light
+ * (direct_glossy). */
+inline float glossy_emission(const SpmScene* s, const __global SpmShape* shape, const SpmSurface* surf, float3 x,
+                             float pdf) {
+  const uint i = (uint)shape->light;
+  const float light_pdf = light_pdf_from(s, &s->lights[i], light_prob(s, i), x, surf->p, surf->ng);
+  return power_heuristic(pdf, light_pdf);
 }
 
 /* Whether the camera ray through film point (fx, fy), past null
@@ -521,7 +595,7 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
       beta *= walk_transmittance(s, &w, maps->march_step);
       sum += beta * seen_emission(s, w.shape, &w.surf, w.d, specular, max_depth);
       if (w.state == SPM_WALK_CROSS) continue;
-      if (w.material->type == SPM_MAT_DIFFUSE ||
+      if (w.material->type == SPM_MAT_DIFFUSE || is_glossy(w.material->type) ||
           !specular_turn(&w, w.rng, SPM_RNG_EMISSION, j, max_depth, &specular, &beta))
         break;
     }
@@ -530,11 +604,13 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
 }
 
 /* One camera sample's radiance; `emission`: whether it adds the emission it
- * sees (emission_chains), `volume_weight`: the weight of its camera
- * segments' volume estimate, 0 to leave it out (spm_gather). Path depths
- * count as Mitsuba's volpath counts them: emission seen after `specular`
- * specular vertices has specular + 1 segments, direct light at the diffuse
- * vertex that ends the chain specular + 2. */
+ * sees through delta chains (emission_chains), `volume_weight`: the weight
+ * of its camera segments' volume estimate, 0 to leave it out (spm_gather).
+ * Path depths count as Mitsuba's volpath counts them: emission seen after
+ * `specular` delta or glossy vertices has specular + 1 segments, direct
+ * light at the diffuse vertex that ends the chain specular + 2. A path goes
+ * on past a plastic's diffuse base along its coat (METHOD.md 13), and past
+ * a glossy vertex by sampling its lobe. */
 inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global SpmCamera* cam, float3 o, float3 d,
                        float tmin, float tmax, uint max_depth, bool emission, float volume_weight, SpmRng rng,
                        SpmSurfaceReuse* reuse, SpmVolumeReuse* volume_reuse, uint* tests) {
@@ -542,6 +618,14 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
   float3 beta = (float3)(1.0f);
   uint specular = 0;
   bool crossed_medium = false;
+  /* Past a glossy vertex the emission a path meets is its own whatever
+   * `emission` says (emission_chains stop there); glossy_pdf: the last
+   * vertex's sampling density while it was glossy, else 0, and glossy_x
+   * where it was. */
+  const bool direct_emission = maps->direct_terms && (maps->terms & SPM_TERM_EMISSION);
+  bool glossy = false;
+  float glossy_pdf = 0.0f;
+  float3 glossy_x = (float3)(0.0f);
   SpmWalk w;
   walk_path(&w, o, d, tmin, tmax, cam->medium, rng, SPM_TR_CAMERA);
   while (walk_next(s, &w)) {
@@ -573,36 +657,53 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
     beta *= walk_transmittance(s, &w, maps->march_step);
     const SpmSurface surf = w.surf;
     const __global SpmMaterial* m = w.material;
-    /* Emission seen directly or through specular chains, unless the pixel's
-     * emission chains bring it (emission_chains): paths end at their first
-     * diffuse vertex, whose light NEE and the photon maps provide. */
-    if (emission) L += beta * seen_emission(s, w.shape, &surf, w.d, specular, max_depth);
-    if (w.state == SPM_WALK_CROSS) continue;
-    if (m->type == SPM_MAT_DIFFUSE) {
-      if (reflects_from(m, &surf, w.d)) {
-        const bool nee = maps->direct_terms && (maps->terms & SPM_TERM_DIRECT) && maps->direct == SPM_DIRECT_NEE &&
-                         within_depth(specular + 2u, max_depth);
-        if (nee) L += beta * direct_diffuse(s, &surf, m, w.d, w.medium, maps->march_step, r);
-        const uint depth_limit = record_depth_limit(max_depth, specular);
-        if (maps->final_gather) {
-          float3 caustic = (float3)(0.0f), gathered = (float3)(0.0f);
-          if (maps->terms & SPM_TERM_SURFACE) {
-            caustic = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p, facing_normal(&surf, w.d),
-                                             maps->radius, depth_limit, s->patches, surf.patch);
-          }
-          if (maps->terms & SPM_TERMS_GATHER) {
-            gathered = final_gather(s, maps, &surf, w.d, w.medium, specular + 1u, max_depth, r, tests);
-          }
-          L += beta * load3(m->reflectance) * (SPM_INV_PI * caustic + gathered);
-        } else if (maps->terms & SPM_TERM_SURFACE) {
-          const float3 flux = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p,
-                                                     facing_normal(&surf, w.d), maps->radius, depth_limit, s->patches,
-                                                     surf.patch);
-          L += beta * load3(m->reflectance) * SPM_INV_PI * flux;
-        }
-      }
-      break;
+    /* Emission seen directly or through delta chains, unless the pixel's
+     * emission chains bring it (emission_chains); past a glossy vertex,
+     * weighed against that vertex's next-event estimation. Paths read
+     * the maps at diffuse vertices, whose light NEE and the photon maps
+     * provide. */
+    if (glossy ? direct_emission : emission) {
+      const float3 le = seen_emission(s, w.shape, &surf, w.d, specular, max_depth);
+      if (max_comp(le) > 0.0f)
+        L += beta * le * (glossy_pdf > 0.0f ? glossy_emission(s, w.shape, &surf, glossy_x, glossy_pdf) : 1.0f);
     }
+    if (w.state == SPM_WALK_CROSS) continue;
+    if (has_diffuse(m->type) && reflects_from(m, &surf, w.d)) {
+      const float3 n = facing_normal(&surf, w.d);
+      const float3 exit = diffuse_exit(m, -dot(w.d, n));
+      const bool nee = maps->direct_terms && (maps->terms & SPM_TERM_DIRECT) && maps->direct == SPM_DIRECT_NEE &&
+                       within_depth(specular + 2u, max_depth);
+      if (nee) L += beta * direct_diffuse(s, &surf, m, w.d, w.medium, maps->march_step, r);
+      const uint depth_limit = record_depth_limit(max_depth, specular);
+      if (maps->final_gather) {
+        float3 caustic = (float3)(0.0f), gathered = (float3)(0.0f);
+        if (maps->terms & SPM_TERM_SURFACE) {
+          caustic = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p, n, maps->radius,
+                                           depth_limit, s->patches, surf.patch);
+        }
+        if (maps->terms & SPM_TERMS_GATHER) {
+          gathered = final_gather(s, maps, &surf, m, w.d, w.medium, specular + 1u, max_depth, r, tests);
+        }
+        L += beta * exit * (SPM_INV_PI * caustic + gathered);
+      } else if (maps->terms & SPM_TERM_SURFACE) {
+        const float3 flux = pixel_surface_estimate(reuse, &maps->table, SPM_READ_VERTEX, surf.p, n, maps->radius,
+                                                   depth_limit, s->patches, surf.patch);
+        L += beta * exit * SPM_INV_PI * flux;
+      }
+    }
+    if (m->type == SPM_MAT_DIFFUSE) break;
+    if (is_glossy(m->type)) {
+      /* Without next-event estimation (direct photons) the lobe's samples
+       * bring all of the light they meet. */
+      const bool nee_strategy = maps->direct == SPM_DIRECT_NEE;
+      const bool nee = nee_strategy && maps->direct_terms && (maps->terms & SPM_TERM_DIRECT);
+      glossy_x = surf.p;
+      if (!glossy_turn(s, maps, &w, r, max_depth, nee, &specular, &beta, &glossy_pdf, &L)) break;
+      if (!nee_strategy) glossy_pdf = 0.0f;
+      glossy = true;
+      continue;
+    }
+    glossy_pdf = 0.0f;
     if (!specular_turn(&w, r, SPM_RNG_BSDF, 0u, max_depth, &specular, &beta)) break;
   }
   return L;

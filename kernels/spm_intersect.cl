@@ -43,7 +43,7 @@ __kernel void spm_walk(SPM_SCENE_PARAMS, const __global float4* origins, const _
     draws[k] = (uint2)(w.rng.event, walk_lane(&w));
     if (w.hit && is_specular(w.material->type)) {
       float3 next;
-      if (specular_bounce(w.material, &w.surf, w.d, u, true, &next) > 0.0f) walk_turn(&w, next);
+      if (max_comp(specular_bounce(w.material, &w.surf, w.d, u, true, &next)) > 0.0f) walk_turn(&w, next);
     }
   }
   counts[i] = n | (w.capped ? 0x80000000u : 0u);

@@ -13,7 +13,7 @@
   S(SpmPatch, 48)             \
   S(SpmBvhNode, 32)           \
   S(SpmShape, 32)             \
-  S(SpmMaterial, 32)          \
+  S(SpmMaterial, 80)          \
   S(SpmMedium, 48)            \
   S(SpmGridVolume, 96)        \
   S(SpmLight, 112)            \
@@ -38,6 +38,8 @@
   F(SpmShape, material) F(SpmShape, interior) F(SpmShape, exterior) F(SpmShape, light)          \
   F(SpmShape, flags)                                                                            \
   F(SpmMaterial, reflectance) F(SpmMaterial, type) F(SpmMaterial, eta) F(SpmMaterial, twosided) \
+  F(SpmMaterial, alpha) F(SpmMaterial, distribution) F(SpmMaterial, specular)                   \
+  F(SpmMaterial, fdr_int) F(SpmMaterial, k_eta) F(SpmMaterial, nonlinear) F(SpmMaterial, k)     \
   F(SpmMedium, sigma_t) F(SpmMedium, g) F(SpmMedium, albedo) F(SpmMedium, phase)                \
   F(SpmMedium, sigma_t_grid) F(SpmMedium, albedo_grid)                                          \
   F(SpmGridVolume, to_local) F(SpmGridVolume, dims) F(SpmGridVolume, channels)                  \

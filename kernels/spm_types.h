@@ -131,19 +131,35 @@ typedef struct SpmShape {
   spm_uint pad[3];
 } SpmShape;
 
-/* Material types (SpmMaterial.type). */
+/* Material types (SpmMaterial.type). Their lobes (METHOD.md 13): delta
+ * (conductor, dielectric, thin dielectric, the plastic's coat), glossy (the
+ * rough ones) and diffuse (diffuse, the plastic's base). */
 #define SPM_MAT_DIFFUSE 0u
-#define SPM_MAT_MIRROR 1u     /* conductor without material: perfect mirror */
+#define SPM_MAT_CONDUCTOR 1u  /* smooth conductor: a mirror with the Fresnel reflectance of eta + i k */
 #define SPM_MAT_DIELECTRIC 2u
 #define SPM_MAT_NULL 3u       /* medium boundary: rays pass straight through */
 #define SPM_MAT_THIN_DIELECTRIC 4u /* a thin sheet of glass: reflects, or passes straight on */
+#define SPM_MAT_ROUGH_CONDUCTOR 5u  /* a microfacet conductor */
+#define SPM_MAT_ROUGH_DIELECTRIC 6u /* a microfacet dielectric boundary */
+#define SPM_MAT_PLASTIC 7u          /* a smooth dielectric coat over a diffuse base */
+
+/* Microfacet distributions (SpmMaterial.distribution). */
+#define SPM_MICROFACET_BECKMANN 0u
+#define SPM_MICROFACET_GGX 1u
 
 typedef struct SpmMaterial {
-  spm_float reflectance[3];
+  spm_float reflectance[3]; /* diffuse: reflectance; plastic: diffuse_reflectance */
   spm_uint type;
-  spm_float eta;     /* int_ior / ext_ior (dielectric) */
-  spm_uint twosided; /* diffuse / mirror reflect on both sides */
-  spm_uint pad[2];
+  spm_float eta;         /* dielectrics, plastic: int_ior / ext_ior */
+  spm_uint twosided;     /* opaque materials reflect on both sides */
+  spm_float alpha;       /* rough materials: the microfacet roughness */
+  spm_uint distribution; /* rough materials: SPM_MICROFACET_* */
+  spm_float specular[3]; /* conductors, plastic: specular_reflectance */
+  spm_float fdr_int;     /* plastic: diffuse Fresnel reflectance of the coat from inside */
+  spm_float k_eta[3];    /* conductors: the real part of the complex index */
+  spm_uint nonlinear;    /* plastic: Mitsuba's `nonlinear` */
+  spm_float k[3];        /* conductors: the imaginary part */
+  spm_uint pad;
 } SpmMaterial;
 
 #define SPM_PHASE_ISOTROPIC 0u

@@ -67,6 +67,7 @@ inline float cos(float x) { return rounded(std::cos(x)); }
 inline float acos(float x) { return rounded(std::acos(x)); }
 inline float cbrt(float x) { return rounded(std::cbrt(x)); }
 inline float erf(float x) { return rounded(std::erf(x)); }
+inline float rsqrt(float x) { return rounded(1.0f / std::sqrt(x)); }
 
 inline float fabs(float x) { return std::fabs(x); }
 inline float fmin(float a, float b) { return std::fmin(a, b); }
@@ -95,17 +96,22 @@ struct float3 {
 inline float3 operator+(float3 a, float3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 inline float3 operator-(float3 a, float3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 inline float3 operator-(float3 a, float s) { return {a.x - s, a.y - s, a.z - s}; }
+inline float3 operator-(float s, float3 a) { return {s - a.x, s - a.y, s - a.z}; }
+inline float3 operator+(float3 a, float s) { return {a.x + s, a.y + s, a.z + s}; }
 inline float3 operator-(float3 a) { return {-a.x, -a.y, -a.z}; }
 inline float3 operator*(float3 a, float3 b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
 inline float3 operator*(float s, float3 a) { return {s * a.x, s * a.y, s * a.z}; }
 inline float3 operator*(float3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
 inline float3 operator/(float3 a, float s) { return {a.x / s, a.y / s, a.z / s}; }
+inline float3 operator/(float3 a, float3 b) { return {a.x / b.x, a.y / b.y, a.z / b.z}; }
 inline float3 operator/(float s, float3 a) { return {s / a.x, s / a.y, s / a.z}; }
 
 inline float3 fabs(float3 a) { return {fabs(a.x), fabs(a.y), fabs(a.z)}; }
 inline float3 fmin(float3 a, float3 b) { return {fmin(a.x, b.x), fmin(a.y, b.y), fmin(a.z, b.z)}; }
 inline float3 fmax(float3 a, float3 b) { return {fmax(a.x, b.x), fmax(a.y, b.y), fmax(a.z, b.z)}; }
+inline float3 fmax(float3 a, float s) { return {fmax(a.x, s), fmax(a.y, s), fmax(a.z, s)}; }
 inline float3 exp(float3 a) { return {exp(a.x), exp(a.y), exp(a.z)}; }
+inline float3 sqrt(float3 a) { return {sqrt(a.x), sqrt(a.y), sqrt(a.z)}; }
 
 inline float dot(float3 a, float3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline float3 cross(float3 a, float3 b) {

@@ -239,8 +239,8 @@ void note_geometry(const SpmScene& sc, float3 o, float3 d, const SpmHit& hit, bo
 // specular_bounce for a stream's flux, and what the reference records of it:
 // whether a dielectric reflected, and the margin of that choice, u against
 // the Fresnel reflectance of specular_bounce's cos_i and eta.
-float specular_event(const SpmMaterial& m, const SpmSurface& s, float3 d, float u, float3* out, bool* reflected,
-                     Margins& mg) {
+float3 specular_event(const SpmMaterial& m, const SpmSurface& s, float3 d, float u, float3* out, bool* reflected,
+                      Margins& mg) {
   *reflected = true;
   if (m.type == SPM_MAT_DIELECTRIC) {
     const float cos_i = clamp(-dot(d, facing_normal(&s, d)), 0.0f, 1.0f);
@@ -499,7 +499,8 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
         out.collapsed = true;
         float3 next;
         bool reflected;
-        if (specular_event(mat, surf, dir, rng4(rng, SPM_RNG_BSDF, 0).x, &next, &reflected, margins) == 0.0f) {
+        const float3 f = specular_event(mat, surf, dir, rng4(rng, SPM_RNG_BSDF, 0).x, &next, &reflected, margins);
+        if (!(max_comp(f) > 0.0f)) {
           act = kEnd;
           ++out.black_events;
           out.end = StreamEnd::BlackSurface;
@@ -509,6 +510,7 @@ StreamResult trace_stream(const SceneTables& tables, const StreamSettings& set, 
           depth = k;
           had_event = true;
           after_specular = true;
+          phi = phi * f;
           const float w = goes_on(k, phi, 1.0f, true, flux0, set, rng, out, margins, &refill);
           if (w == 0.0f) {
             act = kEnd;

@@ -122,7 +122,7 @@ TEST_F(BadInput, MalformedXml) {
 TEST_F(BadInput, UnknownPlugin) {
   const std::pair<const char*, const char*> cases[] = {
       {"<shape type=\"torus\"/>", "unsupported shape type 'torus'"},
-      {"<bsdf type=\"plastic\"/>", "unsupported bsdf type 'plastic'"},
+      {"<bsdf type=\"roughplastic\"/>", "unsupported bsdf type 'roughplastic'"},
       {"<emitter type=\"envmap\"/>", "unsupported emitter type 'envmap'"},
       {"<medium type=\"nanovdb\"/>", "unsupported medium type 'nanovdb'"},
       {"<texture type=\"bitmap\"/>", "unknown or unsupported tag <texture>"},

@@ -228,7 +228,7 @@ oops <!--here-->
 }
 
 TEST(SceneParser, RefusesUnknownPluginType) {
-  expect_error("<bsdf type=\"plastic\"/> <!--here-->", "unsupported bsdf type 'plastic'");
+  expect_error("<bsdf type=\"roughplastic\"/> <!--here-->", "unsupported bsdf type 'roughplastic'");
   expect_error("<shape type=\"bsplinecurve\"/> <!--here-->", "unsupported shape type 'bsplinecurve'");
   expect_error("<emitter type=\"envmap\"/> <!--here-->", "unsupported emitter type 'envmap'");
   expect_error("<medium type=\"nanovdb\"/> <!--here-->", "unsupported medium type");
@@ -850,13 +850,81 @@ TEST(SceneParser, ConductorWithoutMaterialIsMirror) {
   Scene s = load(R"(<bsdf type="conductor"/>
 <bsdf type="conductor"><string name="material" value="none"/></bsdf>)");
   for (const Material& m : s.materials) {
-    EXPECT_EQ(m.type, Material::Type::Mirror);
-    expect_vec3(m.reflectance, glm::vec3(1.0f));
+    EXPECT_EQ(m.type, Material::Type::Conductor);
+    expect_vec3(m.eta, glm::vec3(0.0f));
+    expect_vec3(m.k, glm::vec3(1.0f));
+    expect_vec3(m.specular, glm::vec3(1.0f));
   }
+}
+
+// Mitsuba 3.9.1's values for its named conductors (tools/conductor_iors.py).
+TEST(SceneParser, ConductorMaterialsAndIndices) {
+  Scene s = load(R"(<bsdf type="conductor"><string name="material" value="Au"/></bsdf>
+<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.3"/>
+  <string name="distribution" value="ggx"/></bsdf>
+<bsdf type="conductor"><rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.1"/>
+  <rgb name="specular_reflectance" value="0.5"/></bsdf>
+<bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/></bsdf>)");
+  ASSERT_EQ(s.materials.size(), 4u);
+  expect_vec3(s.materials[0].eta, glm::vec3(0.143036f, 0.375307f, 1.442045f));
+  expect_vec3(s.materials[0].k, glm::vec3(3.982997f, 2.385556f, 1.603359f));
+  EXPECT_EQ(s.materials[1].type, Material::Type::RoughConductor);
+  EXPECT_EQ(s.materials[1].distribution, Material::Distribution::GGX);
+  EXPECT_FLOAT_EQ(s.materials[1].alpha, 0.3f);
+  expect_vec3(s.materials[1].eta, glm::vec3(0.201005f, 0.923750f, 1.102215f));
+  expect_vec3(s.materials[2].eta, glm::vec3(0.2f, 0.9f, 1.1f));
+  expect_vec3(s.materials[2].k, glm::vec3(3.9f, 2.4f, 2.1f));
+  expect_vec3(s.materials[2].specular, glm::vec3(0.5f));
+  // Mitsuba's defaults: Beckmann, alpha 0.1, a perfect mirror's index.
+  EXPECT_EQ(s.materials[3].distribution, Material::Distribution::Beckmann);
+  EXPECT_FLOAT_EQ(s.materials[3].alpha, 0.2f);
+  expect_vec3(s.materials[3].k, glm::vec3(1.0f));
+  expect_error(R"(<bsdf type="conductor">
+<string name="material" value="Unobtainium"/> <!--here-->
+</bsdf>)",
+               "unknown conductor material 'Unobtainium'");
   expect_error(R"(<bsdf type="conductor">
 <string name="material" value="Au"/> <!--here-->
+<rgb name="eta" value="1"/></bsdf>)",
+               "either eta and k or a material");
+  expect_error(R"(<bsdf type="roughconductor">
+<string name="distribution" value="phong"/> <!--here-->
 </bsdf>)",
-               "'Au' is not supported");
+               "unknown distribution 'phong'");
+  expect_error(R"(<bsdf type="roughconductor">
+<float name="alpha_u" value="0.1"/> <!--here-->
+<float name="alpha_v" value="0.3"/></bsdf>)",
+               "anisotropic roughness");
+  expect_error(R"(<bsdf type="roughdielectric">
+<float name="alpha" value="-1"/> <!--here-->
+</bsdf>)",
+               "alpha must be >= 0");
+}
+
+TEST(SceneParser, PlasticAndRoughDielectric) {
+  Scene s = load(R"(<bsdf type="plastic"/>
+<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/>
+  <float name="int_ior" value="1.6"/><boolean name="nonlinear" value="true"/></bsdf>
+<bsdf type="roughdielectric"><string name="int_ior" value="water"/><float name="alpha" value="0.05"/></bsdf>)");
+  ASSERT_EQ(s.materials.size(), 3u);
+  EXPECT_EQ(s.materials[0].type, Material::Type::Plastic);
+  EXPECT_FLOAT_EQ(s.materials[0].int_ior, 1.49f);  // polypropylene, Mitsuba's default
+  expect_vec3(s.materials[0].reflectance, glm::vec3(0.5f));
+  EXPECT_FALSE(s.materials[0].nonlinear);
+  expect_vec3(s.materials[1].reflectance, glm::vec3(0.1f, 0.2f, 0.3f));
+  EXPECT_FLOAT_EQ(s.materials[1].int_ior, 1.6f);
+  EXPECT_TRUE(s.materials[1].nonlinear);
+  EXPECT_EQ(s.materials[2].type, Material::Type::RoughDielectric);
+  EXPECT_FLOAT_EQ(s.materials[2].int_ior, 1.333f);
+  EXPECT_FLOAT_EQ(s.materials[2].alpha, 0.05f);
+  expect_error(R"(<bsdf type="plastic">
+<rgb name="diffuse_reflectance" value="1.5"/> <!--here-->
+</bsdf>)",
+               "diffuse_reflectance must be in [0, 1]");
+  expect_error(R"(<bsdf type="twosided">
+<bsdf type="roughdielectric"/> <!--here-->
+</bsdf>)",
+               "cannot wrap a transmissive bsdf");
 }
 
 TEST(SceneParser, DielectricIorAsNumbersAndNames) {
@@ -919,7 +987,7 @@ TEST(SceneParser, NestedBsdfWithIdIsReferencable) {
 <shape type="cube"><ref id="mirror"/></shape>
 <shape type="cube"><ref id="inner"/></shape>)");
   ASSERT_EQ(s.shapes.size(), 3u);
-  EXPECT_EQ(s.materials.at(s.shapes[1].material).type, Material::Type::Mirror);
+  EXPECT_EQ(s.materials.at(s.shapes[1].material).type, Material::Type::Conductor);
   EXPECT_FALSE(s.materials.at(s.shapes[1].material).twosided);
   EXPECT_EQ(s.shapes[2].material, s.shapes[0].material);
 }

@@ -88,7 +88,7 @@ void expect_segments(const Walked& w, const std::vector<Segment>& want) {
   }
 }
 
-const int kNull = SPM_MAT_NULL, kGlass = SPM_MAT_DIELECTRIC, kMirror = SPM_MAT_MIRROR, kNone = -1;
+const int kNull = SPM_MAT_NULL, kGlass = SPM_MAT_DIELECTRIC, kMirror = SPM_MAT_CONDUCTOR, kNone = -1;
 
 // tr_lane of lib/walk.h, written out: call c, segment i.
 uint32_t lane(uint32_t call, uint32_t i) { return ((call << 5) | i) << 16; }

@@ -95,9 +95,8 @@ PassRenderer::PassRenderer(Device& device, const Scene& scene, const SceneTables
       estimator_(kEstimatorOption.code(scene.integrator.estimator)),
       direct_(kDirectOption.code(scene.integrator.direct)),
       final_gather_(scene.integrator.final_gather && direct_ == SPM_DIRECT_NEE),
-      specular_(std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) {
-        return m.type == Material::Type::Mirror || m.type == Material::Type::Dielectric;
-      })),
+      specular_(std::any_of(scene.materials.begin(), scene.materials.end(),
+                            [](const Material& m) { return m.delta_only(); })),
       aimed_(final_gather_ && std::any_of(tables.lights.begin(), tables.lights.end(),
                                           [](const SpmLight& l) { return l.aim > 0.0f; })),
       wall_images_(scene.integrator.wall_images && estimator_ == SPM_ESTIMATOR_BRE) {

@@ -7,6 +7,7 @@
 
 #include "render/tuning.h"
 #include "scene/bvh.h"
+#include "scene/fresnel.h"
 #include "scene/light_power.h"
 #include "util/errors.h"
 
@@ -294,13 +295,26 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
   for (const auto& m : scene.materials) {
     SpmMaterial g{};
     put3(g.reflectance, m.reflectance);
-    g.type = m.type == Material::Type::Diffuse          ? SPM_MAT_DIFFUSE
-             : m.type == Material::Type::Mirror         ? SPM_MAT_MIRROR
-             : m.type == Material::Type::Dielectric     ? SPM_MAT_DIELECTRIC
-             : m.type == Material::Type::ThinDielectric ? SPM_MAT_THIN_DIELECTRIC
-                                                        : SPM_MAT_NULL;
+    using T = Material::Type;
+    g.type = m.type == T::Diffuse           ? SPM_MAT_DIFFUSE
+             : m.type == T::Conductor       ? SPM_MAT_CONDUCTOR
+             : m.type == T::Dielectric      ? SPM_MAT_DIELECTRIC
+             : m.type == T::ThinDielectric  ? SPM_MAT_THIN_DIELECTRIC
+             : m.type == T::RoughConductor  ? SPM_MAT_ROUGH_CONDUCTOR
+             : m.type == T::RoughDielectric ? SPM_MAT_ROUGH_DIELECTRIC
+             : m.type == T::Plastic         ? SPM_MAT_PLASTIC
+                                            : SPM_MAT_NULL;
     g.eta = m.int_ior / m.ext_ior;
     g.twosided = m.twosided ? 1u : 0u;
+    // Mitsuba clamps the roughness there, so that D stays finite.
+    g.alpha = std::max(m.alpha, 1e-4f);
+    g.distribution = m.distribution == Material::Distribution::GGX ? SPM_MICROFACET_GGX : SPM_MICROFACET_BECKMANN;
+    put3(g.specular, m.specular);
+    put3(g.k_eta, m.eta);
+    put3(g.k, m.k);
+    // Light inside a plastic's coat meets it from the dense side.
+    g.fdr_int = m.type == T::Plastic ? float(fresnel_diffuse_reflectance(1.0 / double(g.eta))) : 0.0f;
+    g.nonlinear = m.nonlinear ? 1u : 0u;
     t.materials.push_back(g);
   }
   for (const auto& m : scene.media) {

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "scene/settings.h"
+#include "scene/conductors.h"
 #include "scene/light_power.h"
 #include "scene/media_regions.h"
 #include "scene/mesh.h"
@@ -553,29 +554,37 @@ class Loader {
 
   Material read_bsdf(const pugi::xml_node& node) {
     std::string type = object_type(node);
-    if (type != "diffuse" && type != "conductor" && type != "dielectric" && type != "thindielectric" &&
-        type != "null" && type != "twosided")
+    static const char* const kTypes[] = {"diffuse",         "conductor",       "roughconductor", "dielectric",
+                                         "roughdielectric", "thindielectric", "plastic",        "null",
+                                         "twosided"};
+    if (std::find(std::begin(kTypes), std::end(kTypes), type) == std::end(kTypes))
       ctx_.fail(node, "unsupported bsdf type '" + type +
-                          "' (diffuse, conductor, dielectric, thindielectric, twosided, null)");
+                          "' (diffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, "
+                          "plastic, twosided, null)");
     Props p(ctx_, node, "bsdf '" + type + "'");
     Material m;
     m.where = ctx_.where(node);
     if (type == "diffuse") {
       m.type = Material::Type::Diffuse;
-      if (std::optional<glm::vec3> r = p.get_color("reflectance")) {
-        if (!in_unit_range(*r)) p.fail("reflectance", "reflectance must be in [0, 1]");
-        m.reflectance = *r;
-      }
-    } else if (type == "conductor") {
-      std::string material = p.get_string("material").value_or("none");
-      if (material != "none")
-        p.fail("material", "conductor material '" + material + "' is not supported (only \"none\", a perfect mirror)");
-      m.type = Material::Type::Mirror;
-      m.reflectance = glm::vec3(1.0f);  // material "none": eta 0, k 1, reflects everything
-    } else if (type == "dielectric" || type == "thindielectric") {
-      m.type = type == "dielectric" ? Material::Type::Dielectric : Material::Type::ThinDielectric;
+      m.reflectance = reflectance(p, "reflectance", m.reflectance);
+    } else if (type == "conductor" || type == "roughconductor") {
+      m.type = type == "conductor" ? Material::Type::Conductor : Material::Type::RoughConductor;
+      read_conductor(p, m);
+      if (m.type == Material::Type::RoughConductor) read_roughness(p, m);
+    } else if (type == "dielectric" || type == "thindielectric" || type == "roughdielectric") {
+      m.type = type == "dielectric"        ? Material::Type::Dielectric
+               : type == "thindielectric" ? Material::Type::ThinDielectric
+                                          : Material::Type::RoughDielectric;
       m.int_ior = ior(p, "int_ior", m.int_ior);
       m.ext_ior = ior(p, "ext_ior", m.ext_ior);
+      if (m.type == Material::Type::RoughDielectric) read_roughness(p, m);
+    } else if (type == "plastic") {
+      m.type = Material::Type::Plastic;
+      m.int_ior = ior(p, "int_ior", 1.49f);  // polypropylene
+      m.ext_ior = ior(p, "ext_ior", m.ext_ior);
+      m.reflectance = reflectance(p, "diffuse_reflectance", m.reflectance);
+      m.specular = reflectance(p, "specular_reflectance", m.specular);
+      m.nonlinear = p.get_bool("nonlinear").value_or(false);
     } else if (type == "null") {
       m.type = Material::Type::Null;
     } else {
@@ -585,6 +594,56 @@ class Loader {
     p.finish();
     no_objects(p);
     return m;
+  }
+
+  // A reflectance in [0, 1] per channel.
+  glm::vec3 reflectance(Props& p, const char* name, glm::vec3 fallback) {
+    std::optional<glm::vec3> r = p.get_color(name);
+    if (!r) return fallback;
+    if (!in_unit_range(*r)) p.fail(name, std::string(name) + " must be in [0, 1]");
+    return *r;
+  }
+
+  // A conductor's complex index: eta and k, or one of Mitsuba's named
+  // materials (tools/conductor_iors.py), or "none", a perfect mirror.
+  void read_conductor(Props& p, Material& m) {
+    const bool given = p.has("eta") || p.has("k");
+    std::string material = p.get_string("material").value_or("none");
+    if (given) {
+      if (material != "none") p.fail("material", "give either eta and k or a material, not both");
+      m.eta = p.get_color("eta").value_or(glm::vec3(0.0f));
+      m.k = p.get_color("k").value_or(glm::vec3(1.0f));
+      if (!non_negative(m.eta) || !non_negative(m.k)) p.fail(p.has("eta") ? "eta" : "k", "eta and k must be >= 0");
+    } else if (material != "none") {
+      const auto it = std::find_if(std::begin(kNamedConductors), std::end(kNamedConductors),
+                                   [&](const NamedConductor& c) { return material == c.name; });
+      if (it == std::end(kNamedConductors)) p.fail("material", "unknown conductor material '" + material + "'");
+      m.eta = glm::vec3(it->eta[0], it->eta[1], it->eta[2]);
+      m.k = glm::vec3(it->k[0], it->k[1], it->k[2]);
+    }
+    m.specular = reflectance(p, "specular_reflectance", m.specular);
+  }
+
+  // A microfacet lobe's distribution and roughness. Mitsuba's anisotropic
+  // roughness needs its tangent frames (uv parametrisation): refused
+  // unless alpha_u equals alpha_v. sample_visible changes only how the
+  // lobe is sampled (spm samples visible normals always), not the image.
+  void read_roughness(Props& p, Material& m) {
+    const std::string distribution = p.get_string("distribution").value_or("beckmann");
+    if (distribution == "ggx") m.distribution = Material::Distribution::GGX;
+    else if (distribution != "beckmann")
+      p.fail("distribution", "unknown distribution '" + distribution + "' (beckmann, ggx)");
+    if (p.has("alpha_u") || p.has("alpha_v")) {
+      if (p.has("alpha")) p.fail("alpha", "give either alpha or alpha_u and alpha_v, not both");
+      const std::optional<float> u = p.get_float("alpha_u"), v = p.get_float("alpha_v");
+      if (!u || !v) p.fail(u ? "alpha_u" : "alpha_v", "alpha_u and alpha_v go together");
+      if (*u != *v) p.fail("alpha_u", "anisotropic roughness (alpha_u != alpha_v) is not supported");
+      m.alpha = *u;
+    } else {
+      m.alpha = p.get_float("alpha").value_or(m.alpha);
+    }
+    if (!(m.alpha >= 0.0f) || !std::isfinite(m.alpha)) p.fail("alpha", "alpha must be >= 0");
+    p.get_bool("sample_visible");
   }
 
   // A float, or one of Mitsuba's named materials as a string.
@@ -622,9 +681,9 @@ class Loader {
       ctx_.fail(child, "<" + tag + "> is not allowed in bsdf 'twosided'");
     }
     if (inner.twosided) ctx_.fail(child, "bsdf 'twosided' cannot wrap another twosided bsdf");
-    if (inner.type == Material::Type::Dielectric || inner.type == Material::Type::ThinDielectric ||
-        inner.type == Material::Type::Null)
-      ctx_.fail(child, "bsdf 'twosided' cannot wrap a transmissive bsdf (dielectric, thindielectric, null)");
+    if (!inner.opaque())
+      ctx_.fail(child,
+                "bsdf 'twosided' cannot wrap a transmissive bsdf (dielectric, roughdielectric, thindielectric, null)");
     inner.twosided = true;
     inner.where = ctx_.where(node);
     return inner;

@@ -14,13 +14,30 @@
 namespace spm {
 
 struct Material {
-  enum class Type { Diffuse, Mirror, Dielectric, ThinDielectric, Null };
+  // Mitsuba's bsdf types; their lobes are in docs/METHOD.md 13.
+  enum class Type { Diffuse, Conductor, Dielectric, ThinDielectric, Null, RoughConductor, RoughDielectric, Plastic };
+  enum class Distribution { Beckmann, GGX };
   Type type = Type::Diffuse;
-  glm::vec3 reflectance{0.5f};  // Mitsuba's default bsdf is diffuse 0.5
-  float int_ior = 1.5046f;      // Mitsuba's (thin)dielectric defaults: bk7 inside,
-  float ext_ior = 1.000277f;    // air outside
+  glm::vec3 reflectance{0.5f};  // diffuse reflectance (diffuse: Mitsuba's default 0.5; plastic's too)
+  glm::vec3 specular{1.0f};     // specular_reflectance of conductors and the plastic's coat
+  glm::vec3 eta{0.0f};          // conductors' complex index eta + i k; material "none" (a perfect
+  glm::vec3 k{1.0f};            // mirror) by default
+  float int_ior = 1.5046f;      // Mitsuba's (thin, rough)dielectric defaults: bk7 inside,
+  float ext_ior = 1.000277f;    // air outside (plastic: polypropylene inside)
+  float alpha = 0.1f;           // microfacet roughness (Mitsuba's default)
+  Distribution distribution = Distribution::Beckmann;
+  bool nonlinear = false;       // plastic
   bool twosided = false;
   std::string where;  // "file:line" of the element, for messages
+  // Opaque: light only reflects (no medium changes across it).
+  bool opaque() const {
+    return type == Type::Diffuse || type == Type::Conductor || type == Type::RoughConductor || type == Type::Plastic;
+  }
+  // Only a delta lobe: where a pixel's emission chains start (kernels'
+  // is_specular).
+  bool delta_only() const {
+    return type == Type::Conductor || type == Type::Dielectric || type == Type::ThinDielectric;
+  }
 };
 
 struct Medium {

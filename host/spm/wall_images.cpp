@@ -21,7 +21,8 @@ WallImages::WallImages(const SceneTables& t, float reach) : reach_(reach * 1.001
     const SpmPatch& p = t.patches[i];
     const SpmShape& shape = t.shapes[t.patch_shapes[i]];
     const spm_uint type = t.materials[shape.material].type;
-    const bool opaque = type == SPM_MAT_DIFFUSE || type == SPM_MAT_MIRROR;
+    const bool opaque = type == SPM_MAT_DIFFUSE || type == SPM_MAT_CONDUCTOR || type == SPM_MAT_ROUGH_CONDUCTOR ||
+                        type == SPM_MAT_PLASTIC;
     const bool boundary = type == SPM_MAT_NULL && (shape.interior < 0) != (shape.exterior < 0);
     if (!opaque && !boundary) continue;
     Wall w;

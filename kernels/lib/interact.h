@@ -124,8 +124,11 @@ inline void leave_along(SpmStreams st, uint s, const SpmSurface* surf, const __g
   st.origin[s] = (float4)(leave_surface(surf, next), 0.0f);
 }
 
-/* Mirror or dielectric: collapse (phi := n phi, n := 1; METHOD.md 4), then
- * reflect or refract. */
+/* A delta or glossy surface: collapse (phi := n phi, n := 1; METHOD.md 4
+ * and 13), then reflect or refract, by the delta bounce or a sample of the
+ * glossy lobe, the flux times its weight. For a plastic, the coat's
+ * reflection, which surface_event picked with probability F, so that only
+ * its specular_reflectance weighs. */
 inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, const SpmSurface* surf,
                            const __global SpmShape* shape, const __global SpmMaterial* mat, SpmRng rng,
                            __global uint* counts) {
@@ -134,13 +137,26 @@ inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, cons
   st.phi[s] *= (float4)((float)st.alive[s], (float)st.alive[s], (float)st.alive[s], 1.0f);
   st.alive[s] = 1;
   st.flags[s] |= SPM_STREAM_COLLAPSED;
-  float3 next;
-  if (specular_bounce(mat, surf, d, rng4(rng, SPM_RNG_BSDF, 0).x, false, &next) == 0.0f) {
-    return end_stream(st, s, SPM_END_BLACK, counts, SPM_COUNT_EV_BLACK);
+  const float4 u = rng4(rng, SPM_RNG_BSDF, 0);
+  float3 next = d, f = (float3)(0.0f);
+  if (is_glossy(mat->type)) {
+    float3 n;
+    if (glossy_frame(mat, surf, d, &n)) {
+      float pdf;
+      f = glossy_sample_local(mat, to_local(-d, n), u.xyz, false, &next, &pdf);
+      next = to_world(next, n);
+    }
+  } else if (mat->type == SPM_MAT_PLASTIC) {
+    f = reflects_from(mat, surf, d) ? load3(mat->specular) : (float3)(0.0f);
+    next = normalize(d - 2.0f * dot(d, surf->ns) * surf->ns);
+  } else {
+    f = specular_bounce(mat, surf, d, u.x, false, &next);
   }
+  if (!(max_comp(f) > 0.0f)) return end_stream(st, s, SPM_END_BLACK, counts, SPM_COUNT_EV_BLACK);
   atomic_inc(&counts[SPM_COUNT_EV_SPECULAR]);
   st.depth[s] = depth;
   st.flags[s] |= SPM_STREAM_HAD_EVENT | SPM_STREAM_AFTER_SPECULAR;
+  st.phi[s] *= (float4)(f, 1.0f);
   const float w = goes_on(p, st, s, depth, st.phi[s].xyz, rng, counts);
   if (w == 0.0f) return SPM_TO_END;
   st.phi[s] *= (float4)(w, w, w, 1.0f);
@@ -148,10 +164,11 @@ inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, cons
   return SPM_TO_LIVE;
 }
 
-/* Diffuse surface: the stream's photons are deposited (spm_deposit), the
- * bounce count grows, the stream ends at max_bounces, else it leaves in a
- * cosine-weighted direction and its photons are absorbed with survival =
- * mean reflectance. */
+/* A diffuse lobe (a diffuse surface, a plastic's base): the stream's
+ * photons are deposited (spm_deposit), the bounce count grows, the stream
+ * ends at max_bounces, else it leaves in a cosine-weighted direction and
+ * its photons are absorbed with survival = the mean of what the lobe lets
+ * out that way (diffuse_exit). */
 inline uint diffuse_event(const SpmStreamParams* p, SpmStreams st, uint s, const SpmSurface* surf,
                           const __global SpmShape* shape, const __global SpmMaterial* mat, SpmRng rng,
                           __global uint* counts) {
@@ -167,16 +184,18 @@ inline uint diffuse_event(const SpmStreamParams* p, SpmStreams st, uint s, const
   st.event_normal[s] = (float4)(dot(d, surf->ng) < 0.0f ? surf->ng : -surf->ng, 0.0f);
   st.flags[s] = (flags | SPM_STREAM_HAD_EVENT) & ~SPM_STREAM_AFTER_SPECULAR;
   st.depth[s] = depth;
-  const float3 reflectance = load3(mat->reflectance);
   if (++st.bounces[s] >= p->max_bounces) {
     end_stream(st, s, SPM_END_BOUNCES, counts, SPM_COUNT_END_BOUNCES);
     return SPM_TO_DEPOSIT;
   }
-  const float4 sv = survival(reflectance);
+  /* The direction first: a plastic's base lets out (1 - F_o) of what it
+   * reflects, so its factor depends on it (diffuse_exit). */
+  const float4 u = rng4(rng, SPM_RNG_BSDF, 0);
+  const float3 wo = sample_cosine_hemisphere(u.x, u.y);
+  const float4 sv = survival(diffuse_exit(mat, wo.z));
   const float w = goes_on(p, st, s, depth, st.phi[s].xyz * sv.xyz, rng, counts);
   if (w == 0.0f) return SPM_TO_DEPOSIT;
-  const float4 u = rng4(rng, SPM_RNG_BSDF, 0);
-  leave_along(st, s, surf, shape, to_world(sample_cosine_hemisphere(u.x, u.y), facing_normal(surf, d)));
+  leave_along(st, s, surf, shape, to_world(wo, facing_normal(surf, d)));
   st.scale[s] = (float4)(sv.xyz * w, sv.w);
   return SPM_TO_DEPOSIT;
 }
@@ -201,7 +220,13 @@ inline uint surface_event(const SpmScene* sc, const SpmStreamParams* p, SpmStrea
     atomic_inc(&counts[SPM_COUNT_EV_NULL]);
     return SPM_TO_LIVE;
   }
-  if (mat->type != SPM_MAT_DIFFUSE) return specular_event(p, st, s, &surf, shape, mat, rng, counts);
+  /* A plastic's coat reflects with probability F, else the light enters
+   * its diffuse base (METHOD.md 13). */
+  if (mat->type == SPM_MAT_PLASTIC && reflects_from(mat, &surf, d) &&
+      rng4(rng, SPM_RNG_BSDF, 1).x >= coat_transmission(mat, -dot(d, facing_normal(&surf, d)))) {
+    return specular_event(p, st, s, &surf, shape, mat, rng, counts);
+  }
+  if (!has_diffuse(mat->type)) return specular_event(p, st, s, &surf, shape, mat, rng, counts);
   /* The back of a one-sided diffuse surface is black (Mitsuba). */
   if (!reflects_from(mat, &surf, d)) return end_stream(st, s, SPM_END_BLACK, counts, SPM_COUNT_EV_BLACK);
   return diffuse_event(p, st, s, &surf, shape, mat, rng, counts);

@@ -139,13 +139,31 @@ inline float3 sample_light_from(const SpmScene* s, const __global SpmLight* l, f
   return light_incident(l, x, *p, *n, prob, wi, dist);
 }
 
-/* Next-event estimation from x: a light chosen by power (u.x), then
- * sample_light_from (u.yzw). */
-inline float3 sample_light_incident(const SpmScene* s, float3 x, float4 u, float3* wi, float* dist,
-                                    float3* light_p, float3* light_n) {
-  float prob;
-  const __global SpmLight* l = &s->lights[pick_light(s, u.x, &prob)];
-  return sample_light_from(s, l, prob, x, u.yzw, wi, dist, light_p, light_n);
+/* The probability pick_light gives light i. */
+inline float light_prob(const SpmScene* s, uint i) { return s->light_cdf[i] - (i > 0 ? s->light_cdf[i - 1] : 0.0f); }
+
+/* The density per unit solid angle at x with which sample_light_from
+ * reaches point p (normal n) of light l, picked with probability prob: by
+ * the cone of a sphere that emits outwards (an area light of one sphere),
+ * else by area, d^2 / (|cos| area). 0 for point, spot and directional
+ * lights, which no ray meets: the sample that reached them needs no
+ * multiple importance weight. */
+inline float light_pdf_from(const SpmScene* s, const __global SpmLight* l, float prob, float3 x, float3 p, float3 n) {
+  if (l->type != SPM_LIGHT_AREA) return 0.0f;
+  const __global SpmPrim* prim = &s->prims[s->light_prims[l->prim_begin].prim];
+  if (l->prim_count == 1u && cone_sampled(s, prim)) {
+    const float3 to = load3(prim->p0) - x;
+    const float R = prim->p1[0];
+    const float dc2 = dot(to, to);
+    if (dc2 > 1.0001f * R * R) {
+      const float sin2_max = R * R / dc2;
+      return prob / (2.0f * SPM_PI * sin2_max / (1.0f + sqrt(1.0f - sin2_max)));
+    }
+  }
+  const float3 to = p - x;
+  const float d2 = dot(to, to);
+  const float cos_l = fabs(dot(n, to)) * rsqrt(d2);
+  return cos_l > 0.0f ? prob * d2 / (cos_l * l->area) : 0.0f;
 }
 
 #endif
