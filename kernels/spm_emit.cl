@@ -8,7 +8,8 @@
  * starts uniformly on it, cosine-weighted about the normal (area), uniform
  * (point) or uniform in the cone (spot); a directional light's starts
  * uniformly on the disk across its direction that covers the scene's
- * bounding sphere, going along that direction (METHOD.md 14). Every
+ * bounding sphere, going along that direction, and an environment map's
+ * likewise across a direction drawn from the map (METHOD.md 14). Every
  * associated photon carries phi = Phi_light / (p_light N_s N_a); a spot's
  * photons also carry its falloff. */
 #include "spm_types.h"
@@ -38,6 +39,19 @@ __kernel void spm_emit(SPM_SCENE_PARAMS, SpmStreamParams params, __global uint* 
     p = load3(l->position) + q.x * load3(l->axis_x) + q.y * load3(l->axis_y);
     n = d;
     power = l->area * load3(l->emission);
+  } else if (l->type == SPM_LIGHT_ENVMAP) {
+    /* A direction from the map; the disk across it that covers the
+     * bounding sphere, just outside it; radiance times the disk's area
+     * over the direction's density (METHOD.md 14). */
+    float pdf;
+    const float3 w = env_sample(&sc, l, u1.xy, &pdf);
+    d = -w;
+    float3 t, b;
+    make_basis(d, &t, &b);
+    const float2 q = l->disk_radius * sample_disk(u0.y, u0.z);
+    p = load3(l->position) + 1.001f * l->disk_radius * w + q.x * t + q.y * b;
+    n = d;
+    power = pdf > 0.0f ? l->area * env_radiance(&sc, l, w) / pdf : (float3)(0.0f);
   } else if (l->type == SPM_LIGHT_POINT) {
     p = load3(l->position);
     d = sample_uniform_sphere(u1.x, u1.y);

@@ -136,6 +136,7 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
   n.light = &s->lights[pick_light(s, u.x, &n.prob)];
   n.cone = false;
   n.yn = (float3)(0.0f);
+  const bool infinite = n.light->type == SPM_LIGHT_DIRECTIONAL || n.light->type == SPM_LIGHT_ENVMAP;
   if (n.light->type == SPM_LIGHT_AREA) {
     float prim_prob;
     const __global SpmPrim* prim = pick_light_prim(s, n.light, u.y, &prim_prob);
@@ -144,11 +145,13 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
     else sample_prim_point(s, prim, u.z, u.w, &n.y, &n.yn);
   } else {
     n.y = load3(n.light->position);
+    /* An environment map is sampled afresh at each point, as a cone is. */
+    n.cone = n.light->type == SPM_LIGHT_ENVMAP;
   }
   n.delta = dot(n.y - o, d);
-  /* A directional light has no point to sample distances about: D = 0
+  /* A light at infinity has no point to sample distances about: D = 0
    * leaves the equi-angular strategy out. */
-  n.D = n.light->type == SPM_LIGHT_DIRECTIONAL ? 0.0f : length(n.y - (o + n.delta * d));
+  n.D = infinite ? 0.0f : length(n.y - (o + n.delta * d));
   return n;
 }
 
@@ -229,7 +232,7 @@ inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 
   const SpmNeeLight n = nee_light(s, o, d, rng);
   const float4 u = rng4(rng, SPM_RNG_MEDIUM_NEE, 1);
   float t, pdf;
-  if (n.light->type == SPM_LIGHT_DIRECTIONAL) {
+  if (n.D == 0.0f) {
     if (!(b > a) || isinf(b)) return (float3)(0.0f);
     t = a + u.x * (b - a);
     pdf = 1.0f / (b - a);
@@ -500,6 +503,22 @@ inline float3 seen_emission(const SpmScene* s, const __global SpmShape* shape, c
   return load3(s->lights[shape->light].emission);
 }
 
+/* The light of the environment maps that a path escaping the scene along
+ * d (outside any medium) sees after `specular` delta or glossy vertices;
+ * glossy_pdf > 0: the density with which the last vertex, glossy, sampled
+ * d, weighed against its next-event estimation of each map. */
+inline float3 escaped_emission(const SpmScene* s, float3 d, uint specular, uint max_depth, float glossy_pdf) {
+  float3 sum = (float3)(0.0f);
+  if (!within_depth(specular + 1u, max_depth)) return sum;
+  for (uint k = 0; k < s->num_lights; ++k) {
+    const __global SpmLight* l = &s->lights[k];
+    if (l->type != SPM_LIGHT_ENVMAP) continue;
+    const float w = glossy_pdf > 0.0f ? power_heuristic(glossy_pdf, light_prob(s, k) * env_pdf(s, l, d)) : 1.0f;
+    sum += w * env_radiance(s, l, d);
+  }
+  return sum;
+}
+
 /* A camera path's turn at the mirror or glass its walk's segment ended on
  * (METHOD.md 3), by the uniform of (rng, purpose, lane), counting the
  * specular vertex. False where the path ends: past the specular cap or
@@ -591,7 +610,10 @@ inline float3 emission_chains(const SpmScene* s, const SpmMaps* maps, const __gl
     SpmWalk w;
     walk_path(&w, o, d, tmin, tmax, cam->medium, r, SPM_TR_EMISSION + j);
     while (walk_next(s, &w)) {
-      if (!w.hit) break;
+      if (!w.hit) {
+        if (w.medium < 0) sum += beta * escaped_emission(s, w.d, specular, max_depth, 0.0f);
+        break;
+      }
       beta *= walk_transmittance(s, &w, maps->march_step);
       sum += beta * seen_emission(s, w.shape, &w.surf, w.d, specular, max_depth);
       if (w.state == SPM_WALK_CROSS) continue;
@@ -651,9 +673,14 @@ inline float3 radiance(const SpmScene* s, const SpmMaps* maps, const __global Sp
         L += beta * medium_nee(s, w.medium, w.o, w.d, w.t0, w.t1, maps->march_step, r);
       }
     }
-    /* Escaping: outside a medium there is no environment light in the
-     * supported subset, inside one the light has all been gathered. */
-    if (!w.hit) break;
+    /* Escaping: outside a medium the path sees the environment maps
+     * (METHOD.md 14), as it sees emission on a surface; inside one, which
+     * then has no boundary, nothing reaches infinity. */
+    if (!w.hit) {
+      if (w.medium < 0 && (glossy ? direct_emission : emission))
+        L += beta * escaped_emission(s, w.d, specular, max_depth, glossy_pdf);
+      break;
+    }
     beta *= walk_transmittance(s, &w, maps->march_step);
     const SpmSurface surf = w.surf;
     const __global SpmMaterial* m = w.material;

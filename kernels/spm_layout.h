@@ -49,7 +49,7 @@
   F(SpmLight, axis_x) F(SpmLight, cos_cutoff) F(SpmLight, axis_y) F(SpmLight, cos_beam)         \
   F(SpmLight, axis_z) F(SpmLight, cutoff) F(SpmLight, prim_begin) F(SpmLight, prim_count)       \
   F(SpmLight, area) F(SpmLight, beam_width) F(SpmLight, medium) F(SpmLight, aim)               \
-  F(SpmLight, disk_radius)                                                                      \
+  F(SpmLight, disk_radius) F(SpmLight, map_height)                                              \
   F(SpmLightPrim, prim) F(SpmLightPrim, cdf)                                                    \
   F(SpmCamera, origin) F(SpmCamera, tan_half_x) F(SpmCamera, axis_x) F(SpmCamera, tan_half_y)   \
   F(SpmCamera, axis_y) F(SpmCamera, near_clip) F(SpmCamera, axis_z) F(SpmCamera, far_clip)      \

@@ -207,9 +207,11 @@ typedef struct SpmGridVolume {
 #define SPM_LIGHT_POINT 1u
 #define SPM_LIGHT_SPOT 2u
 #define SPM_LIGHT_DIRECTIONAL 3u
+#define SPM_LIGHT_ENVMAP 4u /* envmap and constant: radiance from every direction at infinity */
 
 typedef struct SpmLight {
-  spm_float emission[3]; /* area: radiance; point and spot: intensity; directional: irradiance */
+  spm_float emission[3]; /* area: radiance; point and spot: intensity; directional: irradiance;
+                          * envmap: the scale of its map */
   spm_uint type;
   /* point, spot; area: the centroid of its surface, where final-gather rays
    * aim; directional: the centre of the disk its streams start from */
@@ -230,8 +232,9 @@ typedef struct SpmLight {
    * this one (spm_gather.cl, gather_direction): its share of the power of
    * the small lights in a medium (host/scene/gpu_scene.h), 0 for others. */
   spm_float aim;
-  spm_float disk_radius; /* directional: the scene's bounding sphere's (METHOD.md 14) */
-  spm_uint pad;
+  spm_float disk_radius; /* directional, envmap: the scene's bounding sphere's (METHOD.md 14) */
+  spm_uint map_height;   /* envmap: rows of its lat-long map (prim_begin: its offset in the
+                          * scene's light data, prim_count: its columns; lib/lights.h) */
 } SpmLight;
 
 /* Area-light primitive table entry: cumulative area fraction, for sampling a

@@ -123,7 +123,7 @@ TEST_F(BadInput, UnknownPlugin) {
   const std::pair<const char*, const char*> cases[] = {
       {"<shape type=\"torus\"/>", "unsupported shape type 'torus'"},
       {"<bsdf type=\"roughplastic\"/>", "unsupported bsdf type 'roughplastic'"},
-      {"<emitter type=\"envmap\"/>", "unsupported emitter type 'envmap'"},
+      {"<emitter type=\"sunsky\"/>", "unsupported emitter type 'sunsky'"},
       {"<medium type=\"nanovdb\"/>", "unsupported medium type 'nanovdb'"},
       {"<texture type=\"bitmap\"/>", "unknown or unsupported tag <texture>"},
   };

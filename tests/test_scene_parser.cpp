@@ -230,7 +230,7 @@ oops <!--here-->
 TEST(SceneParser, RefusesUnknownPluginType) {
   expect_error("<bsdf type=\"roughplastic\"/> <!--here-->", "unsupported bsdf type 'roughplastic'");
   expect_error("<shape type=\"bsplinecurve\"/> <!--here-->", "unsupported shape type 'bsplinecurve'");
-  expect_error("<emitter type=\"envmap\"/> <!--here-->", "unsupported emitter type 'envmap'");
+  expect_error("<emitter type=\"sunsky\"/> <!--here-->", "unsupported emitter type 'sunsky'");
   expect_error("<medium type=\"nanovdb\"/> <!--here-->", "unsupported medium type");
   expect_error("<sensor type=\"thinlens\"/> <!--here-->", "unsupported sensor type");
 }

@@ -5,10 +5,12 @@
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <stb_image.h>
 #include <stb_image_write.h>
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "util/errors.h"
 #include "util/temp_file.h"
@@ -61,6 +63,50 @@ Image read_exr(const std::string& path) {
   } catch (const std::exception& e) {
     throw InputError(path, std::string("cannot read EXR: ") + e.what());
   }
+}
+
+float from_srgb(float encoded) {
+  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
+
+Image read_image(const std::string& path) {
+  const auto too_large = [&](long long w, long long h) {
+    if (w * h > kMaxImageTexels)
+      throw InputError(path, "image of " + std::to_string(w) + " x " + std::to_string(h) +
+                                 " pixels is larger than spm reads (" + std::to_string(kMaxImageTexels) + ")");
+  };
+  const std::string ext = path.size() >= 4 ? path.substr(path.size() - 4) : "";
+  if (ext == ".exr" || ext == ".EXR") {
+    try {
+      const Imath::Box2i dw = Imf::InputFile(path.c_str()).header().dataWindow();
+      too_large(dw.max.x - dw.min.x + 1LL, dw.max.y - dw.min.y + 1LL);
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw InputError(path, std::string("cannot read EXR: ") + e.what());
+    }
+    return read_exr(path);
+  }
+  int w = 0, h = 0, channels = 0;
+  if (!stbi_info(path.c_str(), &w, &h, &channels))
+    throw InputError(path, std::string("cannot read image: ") + stbi_failure_reason());
+  too_large(w, h);
+  Image image;
+  image.width = w;
+  image.height = h;
+  image.rgb.resize(size_t(w) * h * 3);
+  if (stbi_is_hdr(path.c_str())) {
+    // Radiance .hdr: linear already.
+    std::unique_ptr<float, void (*)(void*)> data(stbi_loadf(path.c_str(), &w, &h, &channels, 3), stbi_image_free);
+    if (!data) throw InputError(path, std::string("cannot read image: ") + stbi_failure_reason());
+    std::copy(data.get(), data.get() + image.rgb.size(), image.rgb.begin());
+    return image;
+  }
+  // 8 or 16 bits per channel, sRGB-encoded as PNG and JPEG files are.
+  std::unique_ptr<stbi_us, void (*)(void*)> data(stbi_load_16(path.c_str(), &w, &h, &channels, 3), stbi_image_free);
+  if (!data) throw InputError(path, std::string("cannot read image: ") + stbi_failure_reason());
+  for (size_t k = 0; k < image.rgb.size(); ++k) image.rgb[k] = from_srgb(data.get()[k] / 65535.0f);
+  return image;
 }
 
 void write_png(const std::string& path, const Image& image) {

@@ -94,7 +94,7 @@ namespace {
 float scene_diagonal(const Scene& scene) {
   auto [lo, hi] = shape_bounds(scene);
   for (const Light& l : scene.lights) {
-    if (l.type == Light::Type::Area || l.type == Light::Type::Directional) continue;
+    if (l.type == Light::Type::Area || l.type == Light::Type::Directional || l.type == Light::Type::Envmap) continue;
     lo = glm::min(lo, l.position);
     hi = glm::max(hi, l.position);
   }

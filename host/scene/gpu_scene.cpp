@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <optional>
 
 #include "render/tuning.h"
@@ -57,6 +58,62 @@ double light_size(const SceneTables& t, const SpmLight& l) {
 
 // SpmLight::aim of every light: its share of the power of the small lights
 // in a medium (kAimedLightSize), 0 for the others.
+// Appends the environment map of l to `data` for the kernels
+// (kernels/lib/lights.h): its texels, the CDF over its rows of cells and
+// each row's over its cells. A cell's weight is its mean luminance under
+// the bilinear lookup (4 x 4 midpoints, each inside the cell, so that
+// every texel the lookup reads there counts) times its solid angle: every
+// direction with light has a positive density, and a small bright sun's
+// cells are weighed by the light they hold, not by their brightest texel.
+void append_environment(std::vector<float>& data, SpmLight& g, const Light& l) {
+  const int w = l.map_width, h = l.map_height;
+  g.prim_begin = static_cast<spm_uint>(data.size());
+  g.prim_count = static_cast<spm_uint>(w);
+  g.map_height = static_cast<spm_uint>(h);
+  std::vector<double> lum(l.map.size());
+  for (size_t k = 0; k < l.map.size(); ++k) {
+    const glm::vec3& c = l.map[k];
+    data.insert(data.end(), {c.x, c.y, c.z});
+    lum[k] = 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;  // linear sRGB luminance, as Mitsuba weighs it
+  }
+  // The lookup of lights.h's env_radiance at (u, theta / pi), in luminance.
+  const auto lookup = [&](double u, double v) {
+    const double xf = u * w - 0.5, yf = v * (h - 1);
+    const double x0 = std::floor(xf), fx = xf - x0;
+    const int ix0 = (int(x0) + w) % w, ix1 = (ix0 + 1) % w;
+    const int iy0 = std::min(int(yf), h - 1), iy1 = std::min(iy0 + 1, h - 1);
+    const double fy = yf - iy0;
+    const auto at = [&](int x, int y) { return lum[size_t(y) * w + x]; };
+    return (1 - fy) * ((1 - fx) * at(ix0, iy0) + fx * at(ix1, iy0)) + fy * ((1 - fx) * at(ix0, iy1) + fx * at(ix1, iy1));
+  };
+  constexpr int kSub = 4;
+  std::vector<double> cells(size_t(w) * h), rows(h, 0.0);
+  for (int j = 0; j < h; ++j) {
+    const double solid_angle = 2.0 * kPi / w * (std::cos(kPi * j / h) - std::cos(kPi * (j + 1) / h));
+    for (int i = 0; i < w; ++i) {
+      double mean = 0.0;
+      for (int a = 0; a < kSub; ++a)
+        for (int b = 0; b < kSub; ++b) mean += lookup((i + (a + 0.5) / kSub) / w, (j + (b + 0.5) / kSub) / h);
+      cells[size_t(j) * w + i] = mean / (kSub * kSub) * solid_angle;
+      rows[j] += cells[size_t(j) * w + i];
+    }
+  }
+  const double total = std::accumulate(rows.begin(), rows.end(), 0.0);
+  double acc = 0.0;
+  for (int j = 0; j < h; ++j) {
+    acc += rows[j];
+    data.push_back(j + 1 == h ? 1.0f : static_cast<float>(total > 0.0 ? acc / total : double(j + 1) / h));
+  }
+  for (int j = 0; j < h; ++j) {
+    double in_row = 0.0;
+    for (int i = 0; i < w; ++i) {
+      in_row += cells[size_t(j) * w + i];
+      data.push_back(i + 1 == w ? 1.0f
+                                : static_cast<float>(rows[j] > 0.0 ? in_row / rows[j] : double(i + 1) / w));
+    }
+  }
+}
+
 void aim_at_small_lights(SceneTables& t) {
   double diagonal = 0.0;
   if (!t.nodes.empty()) {
@@ -66,7 +123,8 @@ void aim_at_small_lights(SceneTables& t) {
   std::vector<bool> aimed;
   double total = 0.0;
   for (const SpmLight& l : t.lights) {
-    aimed.push_back(l.medium >= 0 && l.type != SPM_LIGHT_DIRECTIONAL && light_size(t, l) <= kAimedLightSize * diagonal);
+    aimed.push_back(l.medium >= 0 && l.type != SPM_LIGHT_DIRECTIONAL && l.type != SPM_LIGHT_ENVMAP &&
+                    light_size(t, l) <= kAimedLightSize * diagonal);
     if (aimed.back()) total += l.power;
   }
   for (size_t i = 0; i < t.lights.size(); ++i) {
@@ -390,6 +448,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
   for (size_t i = 0; i < t.prims.size(); ++i) prims_of_shape[t.prims[i].shape].push_back(static_cast<spm_uint>(i));
   double total = 0.0;
   std::vector<double> powers;
+  std::vector<float> light_data;  // the environment maps, after the CDF in t.light_cdf
   for (const auto& l : scene.lights) {
     SpmLight g{};
     const glm::dvec3 power = light_power(scene, l);
@@ -433,6 +492,17 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       put3(g.position, glm::vec3(b.center - glm::dvec3(w) * (1.001 * b.radius)));
       g.disk_radius = static_cast<float>(b.radius);
       g.area = static_cast<float>(light_extent(scene, l));
+    } else if (l.type == Light::Type::Envmap) {
+      g.type = SPM_LIGHT_ENVMAP;
+      put3(g.emission, glm::vec3(l.scale));
+      put3(g.axis_x, l.frame[0]);
+      put3(g.axis_y, l.frame[1]);
+      put3(g.axis_z, l.frame[2]);
+      const BoundingSphere b = scene_bounding_sphere(scene);
+      put3(g.position, glm::vec3(b.center));
+      g.disk_radius = static_cast<float>(b.radius);
+      g.area = static_cast<float>(kPi * b.radius * b.radius);
+      append_environment(light_data, g, l);
     } else {
       g.type = l.type == Light::Type::Point ? SPM_LIGHT_POINT : SPM_LIGHT_SPOT;
       put3(g.emission, l.intensity);
@@ -456,6 +526,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
     acc += powers[i];
     t.light_cdf.push_back(i + 1 == powers.size() ? 1.0f : static_cast<float>(acc / total));
   }
+  t.light_cdf.insert(t.light_cdf.end(), light_data.begin(), light_data.end());
   t.camera = make_camera(scene.camera, width, height);
   return t;
 }

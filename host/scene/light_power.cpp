@@ -1,5 +1,6 @@
 #include "scene/light_power.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace spm {
@@ -55,12 +56,30 @@ BoundingSphere scene_bounding_sphere(const Scene& scene) {
   return {0.5 * (lo + hi), 0.5 * glm::length(hi - lo)};
 }
 
+glm::vec3 environment_mean(const Light& light) {
+  // Each row of texels weighed by the solid angle of its band of theta,
+  // the rows at theta = j pi / (H - 1) as the lookup places them.
+  const int w = light.map_width, h = light.map_height;
+  glm::dvec3 sum(0.0);
+  double weight = 0.0;
+  for (int j = 0; j < h; ++j) {
+    const double band = h == 1 ? 1.0
+                               : std::cos(std::max(0.0, (j - 0.5) / (h - 1)) * kPi) -
+                                     std::cos(std::min(1.0, (j + 0.5) / (h - 1)) * kPi);
+    for (int i = 0; i < w; ++i) sum += band * glm::dvec3(light.map[size_t(j) * w + i]);
+    weight += band * w;
+  }
+  return weight > 0.0 ? glm::vec3(sum / weight) : glm::vec3(0.0f);
+}
+
 glm::vec3 light_emission(const Light& light) {
   switch (light.type) {
     case Light::Type::Area:
       return light.radiance;
     case Light::Type::Directional:
       return light.irradiance;
+    case Light::Type::Envmap:
+      return light.scale * environment_mean(light);
     default:
       return light.intensity;
   }
@@ -71,6 +90,12 @@ double light_extent(const Scene& scene, const Light& light) {
     case Light::Type::Directional: {
       const double r = scene_bounding_sphere(scene).radius;
       return kPi * r * r;
+    }
+    case Light::Type::Envmap: {
+      // Radiance from all 4 pi steradians through the disk across each
+      // direction (METHOD.md 14).
+      const double r = scene_bounding_sphere(scene).radius;
+      return 4.0 * kPi * kPi * r * r;
     }
     case Light::Type::Point:
       return 4.0 * kPi;

@@ -8,6 +8,7 @@
 #include <set>
 #include <utility>
 
+#include "film/image_io.h"
 #include "scene/settings.h"
 #include "scene/conductors.h"
 #include "scene/light_power.h"
@@ -521,7 +522,8 @@ class Loader {
   void check_power(const Light& light) const {
     const bool area = light.type == Light::Type::Area;
     const bool directional = light.type == Light::Type::Directional;
-    const char* what = area ? "radiance" : directional ? "irradiance" : "intensity";
+    const bool environment = light.type == Light::Type::Envmap;
+    const char* what = area ? "radiance" : directional ? "irradiance" : environment ? "radiance (or map)" : "intensity";
     const glm::dvec3 emitted(light_emission(light));
     if (!((emitted.x + emitted.y + emitted.z) / 3.0 > 0.0)) {
       throw InputError(light.where, std::string("light emits no power: its ") + what + " is zero");
@@ -533,7 +535,7 @@ class Loader {
       throw InputError(light.where, std::string("light emits no power: its ") +
                                         (area                                ? "area"
                                          : light.type == Light::Type::Spot   ? "cone (cutoff_angle)"
-                                         : directional                       ? "scene (no shape to light)"
+                                         : directional || environment        ? "scene (no shape to light)"
                                                                              : "extent") +
                                         " is zero or too small");
     }
@@ -715,8 +717,13 @@ class Loader {
       parse_directional(node);
       return;
     }
+    if (type == "constant" || type == "envmap") {
+      parse_environment(node, type);
+      return;
+    }
     if (type != "point" && type != "spot")
-      ctx_.fail(node, "unsupported emitter type '" + type + "' (area in a shape, point, spot, directional)");
+      ctx_.fail(node, "unsupported emitter type '" + type +
+                          "' (area in a shape, point, spot, directional, constant, envmap)");
     Props p(ctx_, node, "emitter '" + type + "'");
     Light light;
     light.where = ctx_.where(node);
@@ -780,6 +787,73 @@ class Loader {
     if (!(glm::length(direction) > 0.0f) || !std::isfinite(glm::length(direction)))
       p.fail(to_world ? "to_world" : "direction", "the direction of a directional emitter must be non-zero");
     light.direction = glm::normalize(direction);
+    p.finish();
+    no_objects(p);
+    scene_.lights.push_back(light);
+    register_id(node, -1);
+  }
+
+  // Mitsuba's constant emitter, `radiance` from every direction, and its
+  // envmap, a lat-long image (OpenEXR, Radiance HDR, or an 8- or 16-bit
+  // sRGB file such as PNG or JPEG) times `scale`, turned by to_world. Both
+  // sit at infinity as a directional light does (METHOD.md 14); a constant
+  // one is a map of one texel. Mitsuba reads an image of any shape as
+  // lat-long; so does spm, with a warning when it is not 2:1.
+  void parse_environment(const pugi::xml_node& node, const std::string& type) {
+    Props p(ctx_, node, "emitter '" + type + "'");
+    Light light;
+    light.type = Light::Type::Envmap;
+    light.where = ctx_.where(node);
+    if (type == "constant") {
+      glm::vec3 radiance(1.0f);
+      if (std::optional<glm::vec3> r = p.get_color("radiance")) {
+        if (!non_negative(*r)) p.fail("radiance", "radiance must not be negative");
+        radiance = *r;
+      }
+      light.map = {radiance};
+      light.map_width = light.map_height = 1;
+    } else {
+      std::optional<std::string> filename = p.get_string("filename");
+      if (!filename) ctx_.fail(node, "emitter 'envmap' needs a filename");
+      Image image;
+      try {
+        image = read_image(ctx_.resolve(*filename));
+      } catch (const InputError& e) {
+        p.fail("filename", e.what());
+      }
+      light.map_width = image.width;
+      light.map_height = image.height;
+      light.map.resize(size_t(image.width) * image.height);
+      for (size_t k = 0; k < light.map.size(); ++k) {
+        const glm::vec3 c(image.rgb[3 * k], image.rgb[3 * k + 1], image.rgb[3 * k + 2]);
+        if (!non_negative(c) || !std::isfinite(c.x + c.y + c.z))
+          p.fail("filename", *filename + ": pixel " + std::to_string(k % image.width) + ", " +
+                                 std::to_string(k / image.width) + " is negative or not finite");
+        light.map[k] = c;
+      }
+      if (image.width != 2 * image.height)
+        std::cerr << light.where << ": warning: envmap " << *filename << " is " << image.width << " x "
+                  << image.height << ", not 2:1; read as a lat-long map, as Mitsuba reads it\n";
+      light.scale = p.get_float("scale").value_or(1.0f);
+      if (!(light.scale >= 0.0f) || !std::isfinite(light.scale)) p.fail("scale", "scale must be >= 0");
+    }
+    if (std::optional<glm::mat4> to_world = p.get_transform("to_world")) {
+      // Directions turn by its rotation (a uniform scale changes none); a
+      // shear or an uneven scale would bend them, which Mitsuba's lookup
+      // does not undo either.
+      glm::mat3 r(*to_world);
+      const float len = glm::length(r[0]);
+      for (int c = 0; c < 3; ++c) {
+        if (!(std::abs(glm::length(r[c]) - len) <= 1e-3f * len)) p.fail("to_world", "the to_world of an environment must be a rotation");
+        r[c] = glm::normalize(r[c]);
+      }
+      const glm::mat3 rt = glm::transpose(r) * r;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b)
+          if (!(std::abs(rt[a][b] - (a == b ? 1.0f : 0.0f)) < 1e-3f))
+            p.fail("to_world", "the to_world of an environment must be a rotation");
+      light.frame = r;
+    }
     p.finish();
     no_objects(p);
     scene_.lights.push_back(light);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "scene/light_power.h"
 #include "util/errors.h"
@@ -114,17 +115,17 @@ int region_medium(const Scene& scene, glm::vec3 p) {
 
 void resolve_light_media(Scene& scene) {
   for (Light& light : scene.lights) {
-    if (light.type == Light::Type::Directional) {
+    if (light.type == Light::Type::Directional || light.type == Light::Type::Envmap) {
       // Its streams start on a disk outside the bounding sphere
       // (METHOD.md 14), in the medium around the scene's shapes.
       const BoundingSphere bounds = scene_bounding_sphere(scene);
-      const glm::dvec3 d(light.direction);
+      const glm::dvec3 d = light.type == Light::Type::Directional ? glm::dvec3(light.direction) : glm::dvec3(0, -1, 0);
       light.medium = medium_at_infinity(scene, bounds.center - d * (2.0 * bounds.radius + 1.0), d);
       if (light.medium != -1) {
         throw InputError(light.where,
-                         "a directional light shines from infinity, and a medium fills all space around the "
-                         "scene: no light of it arrives (Mitsuba renders it black); give the medium a boundary "
-                         "shape");
+                         std::string(light.type == Light::Type::Directional ? "a directional light" : "an environment") +
+                             " shines from infinity, and a medium fills all space around the scene: no light of it "
+                             "arrives (Mitsuba renders it black); give the medium a boundary shape");
       }
       continue;
     }

@@ -63,12 +63,19 @@ struct GridVolume {
 };
 
 struct Light {
-  enum class Type { Area, Point, Spot, Directional };
+  enum class Type { Area, Point, Spot, Directional, Envmap };
   Type type = Type::Area;
   glm::vec3 radiance{1.0f};    // area
   glm::vec3 intensity{1.0f};   // point, spot
   glm::vec3 irradiance{1.0f};  // directional
   glm::vec3 direction{0.0f, 0.0f, 1.0f};  // directional: where its light travels (world, unit)
+  // envmap (and constant, a map of one texel): the lat-long map's linear RGB,
+  // row by row from its top (theta 0), its scale and the rotation of its
+  // to_world (columns: the map's x, y and z axes in the world).
+  std::vector<glm::vec3> map;
+  int map_width = 0, map_height = 0;
+  float scale = 1.0f;
+  glm::mat3 frame{1.0f};
   glm::vec3 position{0.0f};   // point, spot (world)
   glm::mat4 to_world{1.0f};   // spot: shines along its local +z
   float cutoff_angle = 20.0f;  // spot, degrees

@@ -5,6 +5,92 @@
 #include "sampling.h"
 #include "scene.h"
 
+/* Environment maps (envmap, and constant as a map of one texel; METHOD.md
+ * 14). A map of W x H texels (W: prim_count, H: map_height) lies in the
+ * scene's light data from prim_begin: its RGB texels row by row, the top
+ * row first (theta 0, the map's +y); then the inclusive CDF over its H
+ * rows of cells; then each row's inclusive CDF over its W cells. Cell (i,
+ * j) spans u in [i, i+1] / W and theta in [j, j+1] pi / H, and is picked by
+ * the largest luminance that the bilinear lookup can take in it, times
+ * its solid angle; within it the direction is uniform in phi and cos
+ * theta, so that its density is constant there. Directions map to the
+ * image as Mitsuba 3's do: u = atan2(x, -z) / 2 pi, theta = acos(y) in
+ * the map's frame (axis_x, axis_y, axis_z: its to_world rotation). */
+inline float3 env_local(const __global SpmLight* l, float3 w) {
+  return SPM_F3(dot(w, load3(l->axis_x)), dot(w, load3(l->axis_y)), dot(w, load3(l->axis_z)));
+}
+
+/* The radiance the map sends along -w (w: towards the sky), Mitsuba's
+ * lookup: bilinear, texel-centred and periodic in u, rows at theta = j pi
+ * / (H - 1) clamped at the poles; times the emitter's scale. */
+inline float3 env_radiance(const SpmScene* s, const __global SpmLight* l, float3 w) {
+  const float3 v = env_local(l, w);
+  const uint W = l->prim_count, H = l->map_height;
+  float u = atan2(v.x, -v.z) * (0.5f * SPM_INV_PI);
+  u -= floor(u);
+  const float theta = acos(clamp(v.y, -1.0f, 1.0f)) * SPM_INV_PI;
+  const float xf = u * (float)W - 0.5f;
+  const float x0 = floor(xf), fx = xf - x0;
+  const uint ix0 = (uint)((int)x0 + (int)W) % W, ix1 = (ix0 + 1u) % W;
+  const float yf = theta * (float)(H - 1u);
+  const uint iy0 = min((uint)yf, H - 1u), iy1 = min(iy0 + 1u, H - 1u);
+  const float fy = yf - (float)iy0;
+  const __global float* t = s->light_data + l->prim_begin;
+  const float3 c00 = vload3(iy0 * W + ix0, t), c10 = vload3(iy0 * W + ix1, t);
+  const float3 c01 = vload3(iy1 * W + ix0, t), c11 = vload3(iy1 * W + ix1, t);
+  return load3(l->emission) *
+         ((1.0f - fy) * ((1.0f - fx) * c00 + fx * c10) + fy * ((1.0f - fx) * c01 + fx * c11));
+}
+
+/* The solid angle of a cell of row j. */
+inline float env_cell_solid_angle(uint j, uint W, uint H) {
+  return 2.0f * SPM_PI / (float)W * (cos(SPM_PI * (float)j / (float)H) - cos(SPM_PI * (float)(j + 1u) / (float)H));
+}
+
+/* A direction towards the sky, drawn cell by cell by the uniforms u, with
+ * its density per unit solid angle in *pdf. */
+inline float3 env_sample(const SpmScene* s, const __global SpmLight* l, float2 u, float* pdf) {
+  const uint W = l->prim_count, H = l->map_height;
+  const __global float* rows = s->light_data + l->prim_begin + 3u * W * H;
+  const uint j = pick_from_cdf(rows, H, u.x);
+  const float r0 = j > 0u ? rows[j - 1u] : 0.0f;
+  const __global float* cols = rows + H + j * W;
+  const uint i = pick_from_cdf(cols, W, u.y);
+  const float c0 = i > 0u ? cols[i - 1u] : 0.0f;
+  const float pj = rows[j] - r0, pc = cols[i] - c0;
+  /* The uniforms' place within the picked row and cell, for the point in it. */
+  const float a = clamp((u.x - r0) / pj, 0.0f, 1.0f), b = clamp((u.y - c0) / pc, 0.0f, 1.0f);
+  const float phi = 2.0f * SPM_PI * ((float)i + b) / (float)W;
+  const float ct0 = cos(SPM_PI * (float)j / (float)H), ct1 = cos(SPM_PI * (float)(j + 1u) / (float)H);
+  const float ct = ct0 + a * (ct1 - ct0), st = sqrt(fmax(0.0f, 1.0f - ct * ct));
+  *pdf = pj * pc / env_cell_solid_angle(j, W, H);
+  const float3 v = SPM_F3(sin(phi) * st, ct, -cos(phi) * st);
+  return v.x * load3(l->axis_x) + v.y * load3(l->axis_y) + v.z * load3(l->axis_z);
+}
+
+/* env_sample's density for direction w. */
+inline float env_pdf(const SpmScene* s, const __global SpmLight* l, float3 w) {
+  const uint W = l->prim_count, H = l->map_height;
+  const float3 v = env_local(l, w);
+  float u = atan2(v.x, -v.z) * (0.5f * SPM_INV_PI);
+  u -= floor(u);
+  const uint i = min((uint)(u * (float)W), W - 1u);
+  const uint j = min((uint)(acos(clamp(v.y, -1.0f, 1.0f)) * SPM_INV_PI * (float)H), H - 1u);
+  const __global float* rows = s->light_data + l->prim_begin + 3u * W * H;
+  const __global float* cols = rows + H + j * W;
+  const float pj = rows[j] - (j > 0u ? rows[j - 1u] : 0.0f), pc = cols[i] - (i > 0u ? cols[i - 1u] : 0.0f);
+  return pj * pc / env_cell_solid_angle(j, W, H);
+}
+
+/* The radiance of every environment light along -w, for a ray that
+ * escapes the scene outside any medium. */
+inline float3 env_seen(const SpmScene* s, float3 w) {
+  float3 sum = (float3)(0.0f);
+  for (uint k = 0; k < s->num_lights; ++k)
+    if (s->lights[k].type == SPM_LIGHT_ENVMAP) sum += env_radiance(s, &s->lights[k], w);
+  return sum;
+}
+
 /* Mitsuba 3's spot profile: 1 inside beam_width, falling linearly in angle to
  * 0 at cutoff_angle. `cos_theta` is measured from the spot's axis. */
 inline float spot_falloff(const __global SpmLight* l, float cos_theta) {
@@ -107,6 +193,16 @@ inline float3 light_incident(const __global SpmLight* l, float3 x, float3 p, flo
  * is brightest. Other primitives get a uniform point of their area. */
 inline float3 sample_light_from(const SpmScene* s, const __global SpmLight* l, float prob, float3 x, float3 u,
                                 float3* wi, float* dist, float3* p, float3* n) {
+  if (l->type == SPM_LIGHT_ENVMAP) {
+    /* A direction of the map; the shadow ray goes to infinity, and *p is
+     * a point along it, which light_pdf_from reads the direction from. */
+    float pdf;
+    *wi = env_sample(s, l, SPM_F2(u.y, u.z), &pdf);
+    *dist = SPM_INF;
+    *p = x + *wi;
+    *n = (float3)(0.0f);
+    return pdf > 0.0f ? env_radiance(s, l, *wi) / (pdf * prob) : (float3)(0.0f);
+  }
   if (l->type == SPM_LIGHT_AREA) {
     float prim_prob;
     const __global SpmPrim* prim = pick_light_prim(s, l, u.x, &prim_prob);
@@ -145,10 +241,12 @@ inline float light_prob(const SpmScene* s, uint i) { return s->light_cdf[i] - (i
 /* The density per unit solid angle at x with which sample_light_from
  * reaches point p (normal n) of light l, picked with probability prob: by
  * the cone of a sphere that emits outwards (an area light of one sphere),
- * else by area, d^2 / (|cos| area). 0 for point, spot and directional
+ * else by area, d^2 / (|cos| area); an environment map's for the
+ * direction from x to p. 0 for point, spot and directional
  * lights, which no ray meets: the sample that reached them needs no
  * multiple importance weight. */
 inline float light_pdf_from(const SpmScene* s, const __global SpmLight* l, float prob, float3 x, float3 p, float3 n) {
+  if (l->type == SPM_LIGHT_ENVMAP) return prob * env_pdf(s, l, normalize(p - x));
   if (l->type != SPM_LIGHT_AREA) return 0.0f;
   const __global SpmPrim* prim = &s->prims[s->light_prims[l->prim_begin].prim];
   if (l->prim_count == 1u && cone_sampled(s, prim)) {

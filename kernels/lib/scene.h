@@ -37,6 +37,7 @@ typedef struct SpmScene {
   const __global SpmLight* lights;
   const __global SpmLightPrim* light_prims;
   const __global float* light_cdf; /* inclusive CDF over lights by power */
+  const __global float* light_data; /* after it: the environment maps (lib/lights.h) */
   SpmMedia md;                     /* media with their grids (medium.h) */
   uint num_prims;
   uint num_lights;
@@ -60,6 +61,7 @@ inline SpmScene make_scene(const __global SpmBvhNode* nodes, const __global SpmP
   s.lights = lights;
   s.light_prims = light_prims;
   s.light_cdf = light_cdf;
+  s.light_data = light_cdf + num_lights;
   s.md.media = media;
   s.md.grids = grids;
   s.md.grid_data = grid_data;
