@@ -160,6 +160,14 @@ Renders validate(const Case& c) {
   return r;
 }
 
+// After the 4N passes of validate: relMSE below `bound`, and the image's
+// mean within `tolerance` of volpath's (outside `skip` for both).
+void expect_converged(const Renders& r, double bound, double tolerance, const Region& skip = {}) {
+  EXPECT_LT(rel_mse(r.n4, r.ref, skip), bound) << "relMSE after 4N passes";
+  const double ratio = mean_ratio(r.n4, r.ref, skip);
+  EXPECT_NEAR(ratio, 1.0, tolerance) << "spm/volpath after 4N passes: " << ratio;
+}
+
 // Measured (64x64, the file's 10000 streams x 100 and 61 samples per pass,
 // max_bounces 32), with the final gather (the default): relMSE after 2
 // passes 0.00208 (seed 7, the one used here; seeds 11 and 13: 0.00203,
@@ -282,11 +290,22 @@ TEST(Validation, GlassBunnyFromAPlyConvergesToMitsuba) {
   const Region light{22, 0, 38, 10};
   Case c{"bunny_fog", 2, 0.073, light};
   c.seeds = {7, 11, 13};
-  const Renders r = validate(c);
-  EXPECT_LT(rel_mse(r.n4, r.ref, light), 0.017) << "relMSE after 8 passes";
-  const double ratio = mean_ratio(r.n4, r.ref, light);
-  EXPECT_GT(ratio, 0.97) << "spm/volpath after 8 passes: " << ratio;
-  EXPECT_LT(ratio, 1.03) << "spm/volpath after 8 passes: " << ratio;
+  expect_converged(validate(c), 0.017, 0.03, light);
+}
+
+// Glossy and layered surfaces (METHOD.md 13): a rough copper sphere (GGX),
+// a frosted glass one (Beckmann) and a plastic floor in fog, in a file
+// written for Mitsuba. Its reference has 220,864 samples (20 minutes of
+// volpath). Measured (64x64, 32 bounces): relMSE after 2 passes 0.0132
+// (seed 7), 0.0338 and 0.0132 (seeds 11, 13); after 8 passes 0.0030, 0.0042
+// and 0.0095 (seed 13 keeps a bright pixel); mean ratio spm/volpath 0.990
+// after 8 passes (0.995 after 64: the glossy spheres' surroundings read
+// 1-1.7% dark). Bounds: the median after 2 passes 0.023 (1.75x), seed 7's
+// after 8 passes 0.0075 (2.5x), the mean ratio within 3%.
+TEST(Validation, GlossyFogConvergesToMitsuba) {
+  Case c{"glossy_fog", 2, 0.023, {}};
+  c.seeds = {7, 11, 13};
+  expect_converged(validate(c), 0.0075, 0.03);
 }
 
 // A directional light (METHOD.md 14): the sun through a window in a roof
@@ -302,11 +321,7 @@ TEST(Validation, GlassBunnyFromAPlyConvergesToMitsuba) {
 TEST(Validation, SunShaftConvergesToMitsuba) {
   Case c{"sun_shaft", 4, 0.055, {}};
   c.seeds = {7, 11, 13};
-  const Renders r = validate(c);
-  EXPECT_LT(rel_mse(r.n4, r.ref), 0.015) << "relMSE after 16 passes";
-  const double ratio = mean_ratio(r.n4, r.ref);
-  EXPECT_GT(ratio, 0.9) << "spm/volpath after 16 passes: " << ratio;
-  EXPECT_LT(ratio, 1.1) << "spm/volpath after 16 passes: " << ratio;
+  expect_converged(validate(c), 0.015, 0.1);
 }
 
 // A heterogeneous medium (METHOD.md 12): the smoke plume of
