@@ -148,9 +148,9 @@ inline SpmNeeLight nee_light(const SpmScene* s, float3 o, float3 d, SpmRng rng) 
     /* An environment map is sampled afresh at each point, as a cone is. */
     n.cone = n.light->type == SPM_LIGHT_ENVMAP;
   }
-  n.delta = dot(n.y - o, d);
   /* A light at infinity has no point to sample distances about: D = 0
    * leaves the equi-angular strategy out. */
+  n.delta = infinite ? 0.0f : dot(n.y - o, d);
   n.D = infinite ? 0.0f : length(n.y - (o + n.delta * d));
   return n;
 }
@@ -221,7 +221,7 @@ inline float3 inscatter_nee(const SpmScene* s, int medium, float3 o, float3 d, f
  * transmittance to it and to the light by medium.h's marching or ratio
  * tracking. A flight-distance strategy would need the inverse of the
  * segment's optical depth; equi-angular sampling already has its pdf. A
- * directional light, which has no point to centre it on, gets a uniform
+ * light at infinity, which has no point to centre it on, gets a uniform
  * distance in that part instead (METHOD.md 14). */
 inline float3 inscatter_nee_heterogeneous(const SpmScene* s, int medium, float3 o, float3 d, float t0, float t1,
                                           float step, SpmRng rng) {

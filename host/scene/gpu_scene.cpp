@@ -485,7 +485,7 @@ SceneTables flatten_scene(const Scene& scene, int width, int height) {
       put3(g.emission, l.irradiance);
       const BoundingSphere b = scene_bounding_sphere(scene);
       const glm::vec3 w = l.direction;
-      const glm::vec3 u = glm::normalize(glm::cross(std::abs(w.x) > 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0), w));
+      const glm::vec3 u = unit_perpendicular(w);
       put3(g.axis_x, u);
       put3(g.axis_y, glm::cross(w, u));
       put3(g.axis_z, w);

@@ -439,7 +439,7 @@ class Loader {
     glm::vec3 axis = p1 - p0;
     if (!(glm::length(axis) > 0.0f)) p.fail("p1", "cylinder p0 and p1 are the same point");
     glm::vec3 w = glm::normalize(axis);
-    glm::vec3 u = glm::normalize(glm::cross(std::abs(w.x) > 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0), w));
+    glm::vec3 u = unit_perpendicular(w);
     glm::vec3 v = glm::cross(w, u);
     Mesh mesh;
     for (unsigned i = 0; i < kRoundSegments; ++i) {

@@ -2,6 +2,8 @@
 // describes, resolved into world space. Nothing here knows about OpenCL.
 #pragma once
 
+#include <cmath>
+
 #include <glm/glm.hpp>
 
 #include <map>
@@ -12,6 +14,12 @@
 #include "scene/volume_grid.h"
 
 namespace spm {
+
+// A unit vector perpendicular to the unit vector w (for the frames of
+// cylinders and of the disks lights at infinity start from).
+inline glm::vec3 unit_perpendicular(const glm::vec3& w) {
+  return glm::normalize(glm::cross(std::abs(w.x) > 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0), w));
+}
 
 struct Material {
   // Mitsuba's bsdf types; their lobes are in docs/METHOD.md 13.
