@@ -61,10 +61,13 @@ double light_size(const SceneTables& t, const SpmLight& l) {
 // Appends the environment map of l to `data` for the kernels
 // (kernels/lib/lights.h): its texels, the CDF over its rows of cells and
 // each row's over its cells. A cell's weight is its mean luminance under
-// the bilinear lookup (4 x 4 midpoints, each inside the cell, so that
-// every texel the lookup reads there counts) times its solid angle: every
-// direction with light has a positive density, and a small bright sun's
-// cells are weighed by the light they hold, not by their brightest texel.
+// the bilinear lookup (4 x 4 midpoints), so that a small bright sun's cells
+// are weighed by the light they hold, not by their brightest texel; but at
+// least 1/8 of the brightest texel the lookup reads anywhere in the cell,
+// since a sliver of the cell between its midpoints and its edge may read a
+// texel none of them reads, whose light a weight of 0 there would lose;
+// times its solid angle. Every direction with light then has a positive
+// density.
 void append_environment(std::vector<float>& data, SpmLight& g, const Light& l) {
   const int w = l.map_width, h = l.map_height;
   g.prim_begin = static_cast<spm_uint>(data.size());
@@ -90,11 +93,17 @@ void append_environment(std::vector<float>& data, SpmLight& g, const Light& l) {
   std::vector<double> cells(size_t(w) * h), rows(h, 0.0);
   for (int j = 0; j < h; ++j) {
     const double solid_angle = 2.0 * kPi / w * (std::cos(kPi * j / h) - std::cos(kPi * (j + 1) / h));
+    // The rows the lookup reads in the cell's band of theta.
+    const int y0 = static_cast<int>(std::floor(double(j) * (h - 1) / h));
+    const int y1 = std::min(h - 1, static_cast<int>(std::ceil(double(j + 1) * (h - 1) / h)));
     for (int i = 0; i < w; ++i) {
       double mean = 0.0;
       for (int a = 0; a < kSub; ++a)
         for (int b = 0; b < kSub; ++b) mean += lookup((i + (a + 0.5) / kSub) / w, (j + (b + 0.5) / kSub) / h);
-      cells[size_t(j) * w + i] = mean / (kSub * kSub) * solid_angle;
+      double top = 0.0;
+      for (int y = y0; y <= y1; ++y)
+        for (int x = i - 1; x <= i + 1; ++x) top = std::max(top, lum[size_t(y) * w + size_t((x + w) % w)]);
+      cells[size_t(j) * w + i] = std::max(mean / (kSub * kSub), top / (2 * kSub)) * solid_angle;
       rows[j] += cells[size_t(j) * w + i];
     }
   }
