@@ -9,6 +9,8 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
+
 #include "film/image_io.h"
 #include "scene/loader.h"
 #include "test_support.h"
@@ -87,11 +89,10 @@ class EnvironmentFiles : public ::testing::Test {
 };
 
 // The lookup is Mitsuba's: texel-centred in u, rows at theta = j pi / (H -
-// 1). A map whose rows are 1 at the top (theta 0, +y) and 3 at the bottom
-// (-y), 2 in the middle row, lights a plane facing up from the top half
-// alone: its radiance is rho times the cosine-weighted mean of the map over
-// the upper hemisphere, the rows linear in theta between them, 1 + 2 theta
-// / (pi / 2) / 2... computed here by quadrature of the same lookup.
+// 1). A map of three rows, 1 at the top (theta 0, +y), 2 at the horizon
+// and 3 at the bottom (-y), is 1 + 2 theta / pi under that lookup; it
+// lights a plane facing up from the upper hemisphere alone, whose
+// radiance is rho / pi times the irradiance, computed here by quadrature.
 TEST_F(EnvironmentFiles, AMapLightsAPlaneAsItsLookupSays) {
   spm::Image map;
   map.width = 4;
