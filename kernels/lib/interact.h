@@ -127,8 +127,8 @@ inline void leave_along(SpmStreams st, uint s, const SpmSurface* surf, const __g
 /* A delta or glossy surface: collapse (phi := n phi, n := 1; METHOD.md 4
  * and 13), then reflect or refract, by the delta bounce or a sample of the
  * glossy lobe, the flux times its weight. For a plastic, the coat's
- * reflection, which surface_event picked with probability F, so that only
- * its specular_reflectance weighs. */
+ * reflection, which surface_event picked with probability F on the side
+ * that reflects, so that only its specular_reflectance weighs. */
 inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, const SpmSurface* surf,
                            const __global SpmShape* shape, const __global SpmMaterial* mat, SpmRng rng,
                            __global uint* counts) {
@@ -147,7 +147,7 @@ inline uint specular_event(const SpmStreamParams* p, SpmStreams st, uint s, cons
       next = to_world(next, n);
     }
   } else if (mat->type == SPM_MAT_PLASTIC) {
-    f = reflects_from(mat, surf, d) ? load3(mat->specular) : (float3)(0.0f);
+    f = load3(mat->specular);
     next = normalize(d - 2.0f * dot(d, surf->ns) * surf->ns);
   } else {
     f = specular_bounce(mat, surf, d, u.x, false, &next);
