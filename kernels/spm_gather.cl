@@ -73,6 +73,15 @@ inline SpmLightSample surface_light_sample(const SpmScene* s, float3 x, SpmRng r
   return ls;
 }
 
+/* The transmittance of the shadow ray of light sample ls from surf, which
+ * a path reached in `medium`, leaving on the side the ray goes to. */
+inline float3 light_sample_transmittance(const SpmScene* s, const SpmSurface* surf, const SpmLightSample* ls,
+                                         int medium, float step, SpmRng rng) {
+  return shadow_transmittance(s, leave_surface(surf, ls->wi), ls->wi, ls->reach,
+                              target_medium(&s->shapes[surf->shape], surf->ng, ls->wi, medium), step, rng,
+                              SPM_TR_DIRECT);
+}
+
 /* Direct light reflected by a surface's diffuse lobe towards -d; `medium`
  * is the one the camera path arrived in. */
 inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __global SpmMaterial* m, float3 d,
@@ -81,9 +90,7 @@ inline float3 direct_diffuse(const SpmScene* s, const SpmSurface* surf, const __
   const SpmLightSample ls = surface_light_sample(s, surf->p, rng);
   const float cos_x = dot(ls.wi, n);
   if (cos_x <= 0.0f || max_comp(ls.li) <= 0.0f) return (float3)(0.0f);
-  const float3 tr = shadow_transmittance(s, leave_surface(surf, ls.wi), ls.wi, ls.reach,
-                                         target_medium(&s->shapes[surf->shape], surf->ng, ls.wi, medium), step, rng,
-                                         SPM_TR_DIRECT);
+  const float3 tr = light_sample_transmittance(s, surf, &ls, medium, step, rng);
   return diffuse_f_pi(m, n, ls.wi, -d) * SPM_INV_PI * cos_x * ls.li * tr;
 }
 
@@ -102,9 +109,7 @@ inline float3 direct_glossy(const SpmScene* s, const SpmSurface* surf, const __g
   float pdf;
   const float3 f = glossy_eval_local(m, wi_local, to_local(ls.wi, n), true, &pdf);
   if (max_comp(f) <= 0.0f) return (float3)(0.0f);
-  const float3 tr = shadow_transmittance(s, leave_surface(surf, ls.wi), ls.wi, ls.reach,
-                                         target_medium(&s->shapes[surf->shape], surf->ng, ls.wi, medium), step, rng,
-                                         SPM_TR_DIRECT);
+  const float3 tr = light_sample_transmittance(s, surf, &ls, medium, step, rng);
   const float light_pdf = light_pdf_from(s, ls.light, ls.prob, surf->p, ls.p, ls.n);
   return f * ls.li * tr * (light_pdf > 0.0f ? power_heuristic(light_pdf, pdf) : 1.0f);
 }
